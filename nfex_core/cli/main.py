@@ -1,0 +1,85 @@
+"""Entry point of the ``nfex`` console script."""
+from __future__ import annotations
+
+import sys
+import traceback
+from typing import Annotated
+
+import click
+import typer
+
+from ..errors import NfexError
+from . import kg, sparql, validate
+from .common import STORE_HELP, err, state
+
+app = typer.Typer(
+    name="nfex",
+    help="nFEX: which feature extractor to run, with which parameters, and why.",
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    add_completion=False,
+)
+
+
+@app.callback()
+def _options(
+    store: Annotated[str | None, typer.Option("--store", envvar="NFEX_STORE", help=STORE_HELP)] = None,
+    debug: Annotated[bool, typer.Option("--debug", help="Print tracebacks.")] = False,
+) -> None:
+    state.store = store
+    state.debug = debug
+
+
+app.command("sparql")(sparql.sparql)
+app.command("validate")(validate.validate)
+app.add_typer(kg.app, name="kg")
+
+# Command groups added by later subsystems register here (module, attribute, name).
+_PLUGINS: list[tuple[str, str, str]] = [
+    ("nfex_core.cli.serve", "serve", "serve"),
+]
+for module, attr, name in _PLUGINS:
+    try:
+        mod = __import__(module, fromlist=[attr])
+    except ModuleNotFoundError as e:
+        if e.name is None or not module.startswith(e.name):
+            raise
+        continue
+    obj = getattr(mod, attr)
+    if isinstance(obj, typer.Typer):
+        app.add_typer(obj, name=name)
+    else:
+        app.command(name)(obj)
+
+
+def main(argv: list[str] | None = None) -> None:
+    args = sys.argv[1:] if argv is None else argv
+    debug = "--debug" in args
+    try:
+        rv = app(args=args, prog_name="nfex", standalone_mode=False)
+    except click.exceptions.Exit as e:
+        sys.exit(e.exit_code)
+    except click.exceptions.Abort:
+        err("nfex: aborted")
+        sys.exit(130)
+    except click.ClickException as e:
+        e.show()
+        sys.exit(2)
+    except NfexError as e:
+        if debug:
+            traceback.print_exc()
+        err(f"nfex: {e.title.lower()}: {e.detail}")
+        sys.exit(e.exit_code)
+    except KeyboardInterrupt:
+        err("nfex: interrupted")
+        sys.exit(130)
+    except Exception as e:  # a bug: say so in one line, with the trace only on request
+        if debug:
+            traceback.print_exc()
+        err(f"nfex: internal error: {type(e).__name__}: {e} (run with --debug for the traceback)")
+        sys.exit(3)
+    sys.exit(rv if isinstance(rv, int) else 0)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,24 @@
+"""``nfex serve``: the HTTP service with uvicorn."""
+from __future__ import annotations
+
+from typing import Annotated
+
+import typer
+
+
+def serve(
+    host: Annotated[str, typer.Option(envvar="NFEX_HOST", help="Interface to bind.")] = "127.0.0.1",
+    port: Annotated[int, typer.Option(envvar="NFEX_PORT", help="Port to bind.")] = 8000,
+    workers: Annotated[int, typer.Option(help="Worker processes (remote store only: an embedded store has one writer).")] = 1,
+    log_level: Annotated[str, typer.Option(envvar="NFEX_LOG_LEVEL")] = "info",
+) -> None:
+    """Run the nFEX HTTP service (the store comes from --store / $NFEX_STORE)."""
+    import os
+
+    import uvicorn
+
+    from .common import state
+
+    if state.store:
+        os.environ["NFEX_STORE"] = state.store
+    uvicorn.run("service.main:create_app", factory=True, host=host, port=port, workers=workers, log_level=log_level)

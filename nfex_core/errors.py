@@ -1,0 +1,184 @@
+"""One exception hierarchy for nFEX.
+
+Each kind knows its HTTP status, a short ``type`` slug (rendered as an RFC 9457 problem type
+``https://w3id.org/nfex/problems/<slug>``) and the CLI exit code, so the service renders every error
+in one handler and the CLI prints one line and exits with the kind's code. Exit codes follow
+pySHACL's convention: 1 = the data does not conform, 2 = bad input, 3 = internal error.
+"""
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+PROBLEM_BASE = "https://w3id.org/nfex/problems/"
+
+
+class NfexError(Exception):
+    """Base of every error nFEX raises on purpose."""
+
+    status: ClassVar[int] = 500
+    type: ClassVar[str] = "internal-error"
+    title: ClassVar[str] = "Internal error"
+    exit_code: ClassVar[int] = 3
+
+    def __init__(self, detail: str, **extra: Any) -> None:
+        super().__init__(detail)
+        self.detail = detail
+        self.extra = extra
+
+    def problem(self) -> dict[str, Any]:
+        """The RFC 9457 problem document for this error."""
+        doc: dict[str, Any] = {
+            "type": PROBLEM_BASE + self.type,
+            "title": self.title,
+            "status": self.status,
+            "detail": self.detail,
+        }
+        doc.update(self.extra)
+        return doc
+
+
+class BadInput(NfexError):
+    """The request or the command line is malformed."""
+
+    status = 400
+    type = "bad-input"
+    title = "Bad input"
+    exit_code = 2
+
+
+class ParseError(BadInput):
+    """A text (Turtle, SPARQL, a DSL program) does not parse; carries line and column where known."""
+
+    type = "parse-error"
+    title = "Parse error"
+
+    def __init__(self, detail: str, *, line: int | None = None, column: int | None = None, **extra: Any):
+        if line is not None:
+            extra["line"] = line
+        if column is not None:
+            extra["column"] = column
+        super().__init__(detail, **extra)
+        self.line = line
+        self.column = column
+
+
+class UnknownName(BadInput):
+    """A name (extractor, parameter, condition value, metric) the graph does not know."""
+
+    status = 422
+    type = "unknown-name"
+    title = "Unknown name"
+
+    def __init__(self, kind: str, name: str, known: Iterable[str], *, where: str | None = None, **extra: Any):
+        self.kind = kind
+        self.name = name
+        self.known = sorted(known)
+        prefix = f"{where}: " if where else ""
+        detail = f"{prefix}unknown {kind} {name!r}; known: {', '.join(self.known) or '(none)'}"
+        super().__init__(detail, kind=kind, name=name, allowed=self.known, **extra)
+
+
+class ParameterError(BadInput):
+    """A parameter value outside its range, of the wrong type, or not allowed."""
+
+    status = 422
+    type = "invalid-parameter"
+    title = "Invalid parameter"
+
+
+@dataclass(frozen=True)
+class ValidationResult:
+    """One SHACL result: the offending node, the shape and the message."""
+
+    focus_node: str
+    source_shape: str
+    message: str
+    path: str | None = None
+    value: str | None = None
+    severity: str = "Violation"
+
+    def line(self) -> str:
+        where = f" (path {self.path})" if self.path else ""
+        return f"{self.focus_node}{where}: {self.message} [shape {self.source_shape}]"
+
+
+class ValidationFailed(NfexError):
+    """A write was rejected by SHACL; the graph is unchanged. Carries the report."""
+
+    status = 422
+    type = "shacl-violation"
+    title = "The change violates the graph's shapes"
+    exit_code = 1
+
+    def __init__(self, results: Sequence[ValidationResult], report_text: str = "", **extra: Any) -> None:
+        self.results = list(results)
+        self.report_text = report_text
+        first = self.results[0].line() if self.results else "validation failed"
+        more = f" (and {len(self.results) - 1} more)" if len(self.results) > 1 else ""
+        super().__init__(
+            first + more,
+            violations=[r.__dict__ for r in self.results],
+            **extra,
+        )
+
+
+class NotFound(NfexError):
+    status = 404
+    type = "not-found"
+    title = "Not found"
+    exit_code = 4
+
+
+class Conflict(NfexError):
+    """Another writer committed first (optimistic concurrency on the graph version)."""
+
+    status = 409
+    type = "version-conflict"
+    title = "Version conflict"
+    exit_code = 5
+
+
+class PreconditionFailed(Conflict):
+    """``If-Match`` named a graph version that is no longer the head."""
+
+    status = 412
+    type = "precondition-failed"
+    title = "Precondition failed"
+
+
+class StoreUnavailable(NfexError):
+    """The store cannot be opened or reached (a folder held by another process, a server down)."""
+
+    status = 503
+    type = "store-unavailable"
+    title = "Store unavailable"
+    exit_code = 6
+
+
+class QueryLimitExceeded(NfexError):
+    """A SPARQL query ran past its time limit or result-size limit."""
+
+    status = 503
+    type = "query-limit"
+    title = "Query limit exceeded"
+    exit_code = 7
+
+
+class DataMissing(BadInput):
+    """A dataset folder lacks a file it needs."""
+
+    status = 404
+    type = "data-missing"
+    title = "Data missing"
+
+
+@dataclass
+class Problem:
+    """A structured error usable outside exceptions (e.g. collected while checking a program)."""
+
+    detail: str
+    line: int | None = None
+    column: int | None = None
+    extra: dict[str, Any] = field(default_factory=dict)

@@ -1,0 +1,284 @@
+"""Where the triples live: an embedded Oxigraph store (a folder) or any SPARQL 1.1 server (a URL).
+
+Both backends speak the same five operations, so everything above them (versions, transactions,
+the rule engine) is written once, in SPARQL:
+
+- ``select``/``ask``/``construct`` return rdflib terms;
+- ``update`` runs one SPARQL 1.1 Update request, which both Oxigraph and SPARQL servers apply as one
+  transaction (all or nothing);
+- ``query_raw`` returns a query's results serialised in a requested format, for the HTTP endpoint.
+
+The embedded store is RocksDB underneath: a committed update survives a crash, and a process killed
+in the middle of an update leaves the last committed state (RocksDB's write-ahead log).
+"""
+from __future__ import annotations
+
+import json
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+from urllib.parse import urlparse, urlunparse
+
+import httpx
+import pyoxigraph as ox
+import rdflib
+from rdflib.term import BNode, Literal, Node, URIRef
+
+from ..errors import BadInput, ParseError, QueryLimitExceeded, StoreUnavailable
+from .terms import from_oxigraph, from_sparql_json
+
+Row = dict[str, Node]
+
+
+@dataclass(frozen=True)
+class SelectResult:
+    """Variables and rows of a SELECT; unbound variables are absent from a row."""
+
+    variables: list[str]
+    rows: list[Row]
+
+    def __iter__(self):  # type: ignore[no-untyped-def]
+        return iter(self.rows)
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+
+# Result formats by media type, for SELECT/ASK and for CONSTRUCT/DESCRIBE.
+RESULT_FORMATS: dict[str, ox.QueryResultsFormat] = {
+    "application/sparql-results+json": ox.QueryResultsFormat.JSON,
+    "application/sparql-results+xml": ox.QueryResultsFormat.XML,
+    "text/csv": ox.QueryResultsFormat.CSV,
+    "text/tab-separated-values": ox.QueryResultsFormat.TSV,
+}
+GRAPH_FORMATS: dict[str, ox.RdfFormat] = {
+    "text/turtle": ox.RdfFormat.TURTLE,
+    "application/n-triples": ox.RdfFormat.N_TRIPLES,
+    "application/ld+json": ox.RdfFormat.JSON_LD,
+    "application/rdf+xml": ox.RdfFormat.RDF_XML,
+}
+
+
+class Backend(ABC):
+    """The five operations every store offers."""
+
+    location: str
+
+    @abstractmethod
+    def select(self, query: str) -> SelectResult: ...
+
+    @abstractmethod
+    def ask(self, query: str) -> bool: ...
+
+    @abstractmethod
+    def construct(self, query: str) -> rdflib.Graph: ...
+
+    @abstractmethod
+    def update(self, update: str) -> None: ...
+
+    @abstractmethod
+    def query_raw(self, query: str, accept: str) -> tuple[bytes, str, str]:
+        """Run any query; return (body, media type, query form: select|ask|graph)."""
+
+    def close(self) -> None:  # noqa: B027 - optional hook
+        pass
+
+
+class EmbeddedBackend(Backend):
+    """An Oxigraph store in a folder (RocksDB), or in memory when ``path`` is None."""
+
+    def __init__(self, path: str | Path | None) -> None:
+        self.location = str(path) if path is not None else ":memory:"
+        try:
+            self._store = ox.Store(str(path)) if path is not None else ox.Store()
+        except OSError as e:
+            if "lock" in str(e).lower():
+                raise StoreUnavailable(
+                    f"the store folder {path} is in use by another process (an nFEX service or CLI); "
+                    "stop it, or reach it over HTTP with NFEX_STORE=http://…"
+                ) from e
+            raise StoreUnavailable(f"cannot open the store folder {path}: {e}") from e
+
+    def _run(self, query: str) -> Any:
+        try:
+            return self._store.query(query)
+        except SyntaxError as e:
+            raise ParseError(f"invalid SPARQL query: {e}") from e
+
+    def select(self, query: str) -> SelectResult:
+        res = self._run(query)
+        if not isinstance(res, ox.QuerySolutions):
+            raise BadInput("expected a SELECT query")
+        names = [v.value for v in res.variables]
+        rows: list[Row] = []
+        for sol in res:
+            row: Row = {}
+            for name in names:
+                term = sol[name]
+                if term is not None:
+                    row[name] = from_oxigraph(term)
+            rows.append(row)
+        return SelectResult(names, rows)
+
+    def ask(self, query: str) -> bool:
+        res = self._run(query)
+        if not isinstance(res, ox.QueryBoolean):
+            raise BadInput("expected an ASK query")
+        return bool(res)
+
+    def construct(self, query: str) -> rdflib.Graph:
+        res = self._run(query)
+        if not isinstance(res, ox.QueryTriples):
+            raise BadInput("expected a CONSTRUCT or DESCRIBE query")
+        g = rdflib.Graph()
+        for t in res:
+            g.add((from_oxigraph(t.subject), from_oxigraph(t.predicate), from_oxigraph(t.object)))
+        return g
+
+    def update(self, update: str) -> None:
+        try:
+            self._store.update(update)
+        except SyntaxError as e:
+            raise ParseError(f"invalid SPARQL update: {e}") from e
+
+    def query_raw(self, query: str, accept: str) -> tuple[bytes, str, str]:
+        res = self._run(query)
+        if isinstance(res, ox.QueryTriples):
+            media = accept if accept in GRAPH_FORMATS else "text/turtle"
+            return res.serialize(format=GRAPH_FORMATS[media]) or b"", media, "graph"
+        media = accept if accept in RESULT_FORMATS else "application/sparql-results+json"
+        form = "ask" if isinstance(res, ox.QueryBoolean) else "select"
+        return res.serialize(format=RESULT_FORMATS[media]) or b"", media, form
+
+    def flush(self) -> None:
+        self._store.flush()
+
+    def close(self) -> None:
+        # RocksDB releases its lock when the store object is collected.
+        self.__dict__.pop("_store", None)
+
+
+class RemoteBackend(Backend):
+    """A SPARQL 1.1 Protocol server: Oxigraph server, Fuseki, GraphDB, Virtuoso…
+
+    ``url`` is the query endpoint. The update endpoint is ``update_url`` or, by convention, the query
+    URL with its last path segment replaced by ``update`` (Oxigraph ``/query`` → ``/update``; Fuseki
+    ``/ds/query`` → ``/ds/update``; a bare ``http://host:port`` gets ``/query`` and ``/update``).
+    """
+
+    def __init__(self, url: str, *, update_url: str | None = None, timeout_s: float = 30.0) -> None:
+        parsed = urlparse(url)
+        path = parsed.path.rstrip("/")
+        if not path:
+            query_url = urlunparse(parsed._replace(path="/query"))
+            default_update = urlunparse(parsed._replace(path="/update"))
+        else:
+            query_url = url
+            default_update = urlunparse(parsed._replace(path=path.rsplit("/", 1)[0] + "/update"))
+        self.location = query_url
+        self.query_url = query_url
+        self.update_url = update_url or default_update
+        self._client = httpx.Client(timeout=timeout_s)
+
+    def _post_query(self, query: str, accept: str) -> httpx.Response:
+        try:
+            r = self._client.post(
+                self.query_url,
+                content=query.encode("utf-8"),
+                headers={"Content-Type": "application/sparql-query", "Accept": accept},
+            )
+        except httpx.TimeoutException as e:
+            raise QueryLimitExceeded(f"the SPARQL server at {self.query_url} did not answer in time") from e
+        except httpx.HTTPError as e:
+            raise StoreUnavailable(f"cannot reach the SPARQL server at {self.query_url}: {e}") from e
+        self._check(r, "query")
+        return r
+
+    def _check(self, r: httpx.Response, what: str) -> None:
+        if r.status_code < 300:
+            return
+        text = r.text.strip()[:500]
+        if r.status_code == 400:
+            raise ParseError(f"the SPARQL server rejected the {what}: {text}")
+        raise StoreUnavailable(f"the SPARQL server answered {r.status_code} to a {what}: {text}")
+
+    def select(self, query: str) -> SelectResult:
+        data = self._post_query(query, "application/sparql-results+json").json()
+        if "boolean" in data:
+            raise BadInput("expected a SELECT query")
+        names = list(data["head"].get("vars", []))
+        rows = [{k: from_sparql_json(v) for k, v in b.items()} for b in data["results"]["bindings"]]
+        return SelectResult(names, rows)
+
+    def ask(self, query: str) -> bool:
+        data = self._post_query(query, "application/sparql-results+json").json()
+        if "boolean" not in data:
+            raise BadInput("expected an ASK query")
+        return bool(data["boolean"])
+
+    def construct(self, query: str) -> rdflib.Graph:
+        r = self._post_query(query, "application/n-triples")
+        return rdflib.Graph().parse(data=r.text, format="nt")
+
+    def update(self, update: str) -> None:
+        try:
+            r = self._client.post(
+                self.update_url,
+                content=update.encode("utf-8"),
+                headers={"Content-Type": "application/sparql-update"},
+            )
+        except httpx.HTTPError as e:
+            raise StoreUnavailable(f"cannot reach the SPARQL server at {self.update_url}: {e}") from e
+        self._check(r, "update")
+
+    def query_raw(self, query: str, accept: str) -> tuple[bytes, str, str]:
+        wanted = accept if (accept in RESULT_FORMATS or accept in GRAPH_FORMATS) else (
+            "application/sparql-results+json, text/turtle;q=0.9"
+        )
+        r = self._post_query(query, wanted)
+        media = r.headers.get("content-type", "").split(";")[0].strip()
+        if media in GRAPH_FORMATS:
+            form = "graph"
+        elif media == "application/sparql-results+json" and b'"boolean"' in r.content[:200]:
+            form = "ask"
+        else:
+            form = "select"
+        return r.content, media, form
+
+    def close(self) -> None:
+        self._client.close()
+
+
+def open_backend(location: str) -> Backend:
+    """A backend for ``NFEX_STORE``: an http(s) URL, ``:memory:``, or a folder."""
+    if location.startswith(("http://", "https://")):
+        return RemoteBackend(location)
+    if location == ":memory:":
+        return EmbeddedBackend(None)
+    return EmbeddedBackend(Path(location).expanduser())
+
+
+def json_bindings(result: SelectResult) -> dict[str, Any]:
+    """A SELECT result as SPARQL 1.1 JSON results (used by the CLI's --format json)."""
+
+    def term(t: Node) -> dict[str, str]:
+        if isinstance(t, URIRef):
+            return {"type": "uri", "value": str(t)}
+        if isinstance(t, BNode):
+            return {"type": "bnode", "value": str(t)}
+        assert isinstance(t, Literal)
+        d = {"type": "literal", "value": str(t)}
+        if t.language:
+            d["xml:lang"] = t.language
+        elif t.datatype:
+            d["datatype"] = str(t.datatype)
+        return d
+
+    return {
+        "head": {"vars": result.variables},
+        "results": {"bindings": [{k: term(v) for k, v in row.items()} for row in result.rows]},
+    }
+
+
+__all__ = ["Backend", "EmbeddedBackend", "RemoteBackend", "SelectResult", "open_backend", "json_bindings", "json"]

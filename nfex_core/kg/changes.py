@@ -1,0 +1,107 @@
+"""Change sets: what one write adds to and removes from the knowledge graph.
+
+A change set is the unit of a transaction and of a graph version. Its algebra makes versions exact:
+``inverse`` undoes a change, ``then`` composes two changes in order, so rolling back to version v is
+the composition of the inverses of every later version (applied newest first).
+"""
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import rdflib
+from rdflib.term import Node
+
+from ..errors import BadInput, ParseError
+from .terms import Triple, normalise, skolemise
+
+RDF_FORMATS = {
+    ".ttl": "turtle",
+    ".nt": "nt",
+    ".n3": "n3",
+    ".jsonld": "json-ld",
+    ".json": "json-ld",
+    ".rdf": "xml",
+    ".owl": "xml",
+    ".xml": "xml",
+    ".trig": "trig",
+}
+
+
+@dataclass(frozen=True)
+class ChangeSet:
+    added: frozenset[Triple] = field(default_factory=frozenset)
+    removed: frozenset[Triple] = field(default_factory=frozenset)
+
+    @classmethod
+    def adding(cls, triples: Iterable[Triple]) -> ChangeSet:
+        return cls(added=frozenset(triples))
+
+    @classmethod
+    def removing(cls, triples: Iterable[Triple]) -> ChangeSet:
+        return cls(removed=frozenset(triples))
+
+    @classmethod
+    def of(cls, added: Iterable[Triple] = (), removed: Iterable[Triple] = ()) -> ChangeSet:
+        a, r = frozenset(added), frozenset(removed)
+        return cls(added=a - r, removed=r - a)
+
+    @property
+    def empty(self) -> bool:
+        return not self.added and not self.removed
+
+    def __len__(self) -> int:
+        return len(self.added) + len(self.removed)
+
+    def inverse(self) -> ChangeSet:
+        return ChangeSet(added=self.removed, removed=self.added)
+
+    def then(self, later: ChangeSet) -> ChangeSet:
+        """The net change of applying ``self`` and then ``later``.
+
+        Exact when both are effective (each adds only absent triples and removes only present ones),
+        which is what the store records.
+        """
+        added = (self.added - later.removed) | later.added
+        removed = (self.removed - later.added) | later.removed
+        return ChangeSet(added=frozenset(added - removed), removed=frozenset(removed - added))
+
+    def subjects(self) -> set[Node]:
+        return {t[0] for t in self.added} | {t[0] for t in self.removed}
+
+    def nodes(self) -> set[Node]:
+        return self.subjects() | {t[2] for t in self.added} | {t[2] for t in self.removed}
+
+    def as_graph(self, which: str = "added") -> rdflib.Graph:
+        g = rdflib.Graph()
+        for t in self.added if which == "added" else self.removed:
+            g.add(t)
+        return g
+
+
+def graph_triples(graph: rdflib.Graph) -> frozenset[Triple]:
+    """The triples of a parsed graph, skolemised and normalised for the store."""
+    return frozenset(normalise(skolemise(graph)))
+
+
+def parse_rdf(data: str | bytes, *, format: str = "turtle", source: str = "<input>") -> rdflib.Graph:
+    """Parse RDF text; a syntax error becomes a ParseError naming the source (and line where known)."""
+    g = rdflib.Graph()
+    try:
+        g.parse(data=data, format=format)
+    except Exception as e:  # rdflib raises several unrelated types for bad syntax
+        line = getattr(e, "lines", None) or getattr(e, "lineno", None)
+        raise ParseError(f"{source}: not valid {format}: {e}".strip(), line=line if isinstance(line, int) else None) from e
+    return g
+
+
+def read_rdf_file(path: Path) -> rdflib.Graph:
+    fmt = RDF_FORMATS.get(path.suffix.lower())
+    if fmt is None:
+        raise ParseError(f"{path}: unknown RDF file type {path.suffix!r}; use one of {', '.join(sorted(RDF_FORMATS))}")
+    try:
+        data = path.read_bytes()
+    except OSError as e:
+        raise BadInput(f"{path}: cannot read: {e.strerror}") from e
+    return parse_rdf(data, format=fmt, source=str(path))

@@ -1,0 +1,69 @@
+"""Small facts about SPARQL text: which form a query has, and the prefixes nFEX predeclares.
+
+Used at the edges (CLI, HTTP endpoint) to refuse updates on read-only paths before they reach a store
+and to let users write ``nfex:ORB`` without a PREFIX line.
+"""
+from __future__ import annotations
+
+import re
+
+from ..errors import BadInput
+from ..namespaces import PREFIXES
+
+_PROLOGUE = re.compile(r"^(?:\s*(?:PREFIX\s+[A-Za-z0-9_.-]*:\s*<[^>]*>|BASE\s*<[^>]*>))*\s*", re.IGNORECASE)
+_DECLARED = re.compile(r"PREFIX\s+([A-Za-z0-9_.-]*):", re.IGNORECASE)
+_FORMS = ("select", "ask", "construct", "describe")
+_UPDATES = ("insert", "delete", "load", "clear", "drop", "create", "add", "move", "copy", "with")
+
+
+def strip_comments(text: str) -> str:
+    """Remove ``#`` comments, leaving ``#`` inside IRIs and strings alone."""
+    out: list[str] = []
+    in_iri = False
+    quote: str | None = None
+    i = 0
+    while i < len(text):
+        c = text[i]
+        if quote:
+            out.append(c)
+            if c == "\\" and i + 1 < len(text):
+                out.append(text[i + 1])
+                i += 2
+                continue
+            if c == quote:
+                quote = None
+        elif in_iri:
+            out.append(c)
+            if c == ">":
+                in_iri = False
+        elif c == "#":
+            while i < len(text) and text[i] != "\n":
+                i += 1
+            continue
+        else:
+            if c in "\"'":
+                quote = c
+            elif c == "<" and i + 1 < len(text) and not text[i + 1].isspace() and text[i + 1] not in "=":
+                in_iri = True
+            out.append(c)
+        i += 1
+    return "".join(out)
+
+
+def classify(query: str) -> str:
+    """``select`` | ``ask`` | ``construct`` | ``describe``; updates and anything else raise BadInput."""
+    body = _PROLOGUE.sub("", strip_comments(query), count=1)
+    word = re.match(r"[A-Za-z]+", body)
+    keyword = word.group(0).lower() if word else ""
+    if keyword in _FORMS:
+        return keyword
+    if keyword in _UPDATES:
+        raise BadInput("this is a SPARQL Update; queries are read-only here (use `nfex kg update` or POST /sparql/update)")
+    raise BadInput("not a SPARQL query: expected SELECT, ASK, CONSTRUCT or DESCRIBE after the prologue")
+
+
+def with_prefixes(query: str) -> str:
+    """``query`` with PREFIX lines for nFEX's namespaces it does not declare itself."""
+    declared = {m.group(1) for m in _DECLARED.finditer(strip_comments(query))}
+    head = "".join(f"PREFIX {p}: <{ns}>\n" for p, ns in PREFIXES.items() if p not in declared)
+    return head + query

@@ -1,0 +1,419 @@
+"""The knowledge graph: versioned, SHACL-guarded writes over an embedded or remote SPARQL store.
+
+Layout inside the store (the same for Oxigraph in a folder and for any SPARQL 1.1 server):
+
+- the **default graph** holds the knowledge itself: ontology, shapes, rules, programs, measurements;
+- ``<urn:nfex:meta>`` holds the head pointer ``<urn:nfex:head> nfex:versionNumber N`` and one
+  ``nfex:GraphVersion`` node per commit (author, time, message, counts);
+- ``<urn:nfex:version:N:added>`` / ``…:removed`` hold each version's change set.
+
+A commit is one SPARQL Update whose WHERE clause requires the head to still be the version the change
+was validated against (compare-and-swap). The update either applies entirely — data, change set,
+version node and new head — or, when another writer committed first, not at all; the store's own
+transaction makes it atomic, so a process killed mid-write leaves the last committed version.
+"""
+from __future__ import annotations
+
+import random
+import threading
+import time
+import uuid
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from datetime import UTC, datetime, timedelta
+from typing import Any, TypeVar
+
+import rdflib
+from rdflib.namespace import DCTERMS, PROV, RDF, XSD
+from rdflib.term import Literal, URIRef
+
+from ..config import Settings
+from ..errors import BadInput, Conflict, NotFound, PreconditionFailed, ValidationFailed
+from ..namespaces import NFEX, PREFIXES
+from . import validation
+from .backends import Backend, SelectResult, open_backend
+from .changes import ChangeSet, graph_triples
+from .terms import Triple, n3, triple_n3
+
+META = URIRef("urn:nfex:meta")
+CLAIM_TTL_S = 60.0
+HEAD = URIRef("urn:nfex:head")
+T = TypeVar("T")
+
+
+def version_iri(n: int) -> URIRef:
+    return URIRef(f"urn:nfex:version:{n}")
+
+
+def added_graph(n: int) -> URIRef:
+    return URIRef(f"urn:nfex:version:{n}:added")
+
+
+def removed_graph(n: int) -> URIRef:
+    return URIRef(f"urn:nfex:version:{n}:removed")
+
+
+@dataclass(frozen=True)
+class Version:
+    number: int
+    author: str
+    time: datetime | None
+    message: str
+    added: int
+    removed: int
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "version": self.number,
+            "author": self.author,
+            "time": self.time.isoformat() if self.time else None,
+            "message": self.message,
+            "added": self.added,
+            "removed": self.removed,
+        }
+
+
+@dataclass(frozen=True)
+class CommitResult:
+    """The outcome of a write: the version now at head, and whether this write created it."""
+
+    version: int
+    changed: bool
+    added: int = 0
+    removed: int = 0
+    report: validation.Report | None = None
+
+
+def _prefix_block() -> str:
+    return "".join(f"PREFIX {p}: <{ns}>\n" for p, ns in PREFIXES.items())
+
+
+class KnowledgeGraph:
+    """The one way nFEX reads and writes its knowledge graph."""
+
+    def __init__(self, backend: Backend, settings: Settings | None = None) -> None:
+        self.backend = backend
+        self.settings = settings or Settings.from_env()
+        self._write_lock = threading.Lock()
+        self._cache: dict[str, tuple[int, Any]] = {}
+        self._cache_lock = threading.Lock()
+        self._ensure_head()
+
+    # ------------------------------------------------------------------ opening
+    @classmethod
+    def open(cls, location: str | None = None, *, settings: Settings | None = None, seed: bool = True) -> KnowledgeGraph:
+        """Open ``location`` (default ``NFEX_STORE``); seed an empty store from ontology/ and rules/."""
+        settings = settings or Settings.from_env()
+        kg = cls(open_backend(location or settings.store), settings)
+        if seed and kg.version == 0:
+            from .seed import seed
+
+            try:
+                seed(kg)
+            except Conflict:  # another node seeded the shared store at the same moment
+                if kg.version == 0:
+                    raise
+        return kg
+
+    def close(self) -> None:
+        self.backend.close()
+
+    def __enter__(self) -> KnowledgeGraph:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def _ensure_head(self) -> None:
+        self.backend.update(
+            f"INSERT {{ GRAPH {n3(META)} {{ {n3(HEAD)} {n3(NFEX.versionNumber)} 0 }} }} "
+            f"WHERE {{ FILTER NOT EXISTS {{ GRAPH {n3(META)} {{ {n3(HEAD)} {n3(NFEX.versionNumber)} ?v }} }} }}"
+        )
+
+    # ------------------------------------------------------------------ reading
+    @property
+    def location(self) -> str:
+        return self.backend.location
+
+    @property
+    def version(self) -> int:
+        res = self.backend.select(
+            f"SELECT ?v WHERE {{ GRAPH {n3(META)} {{ {n3(HEAD)} {n3(NFEX.versionNumber)} ?v }} }}"
+        )
+        values = [int(r["v"].toPython()) for r in res.rows]  # type: ignore[union-attr]
+        return max(values) if values else 0
+
+    def select(self, query: str, *, prefixes: bool = True) -> SelectResult:
+        return self.backend.select((_prefix_block() if prefixes else "") + query)
+
+    def ask(self, query: str, *, prefixes: bool = True) -> bool:
+        return self.backend.ask((_prefix_block() if prefixes else "") + query)
+
+    def construct(self, query: str, *, prefixes: bool = True) -> rdflib.Graph:
+        return self.backend.construct((_prefix_block() if prefixes else "") + query)
+
+    def data_graph(self) -> rdflib.Graph:
+        """The whole default graph (the knowledge, without version bookkeeping)."""
+        g = self.backend.construct("CONSTRUCT { ?s ?p ?o } WHERE { ?s ?p ?o }")
+        for p, ns in PREFIXES.items():
+            g.bind(p, ns)
+        return g
+
+    def export(self, format: str = "turtle") -> str:
+        return self.data_graph().serialize(format=format)
+
+    def triple_count(self) -> int:
+        res = self.backend.select("SELECT (COUNT(*) AS ?n) WHERE { ?s ?p ?o }")
+        return int(res.rows[0]["n"].toPython())  # type: ignore[union-attr]
+
+    def cached(self, key: str, build: Callable[[], T]) -> T:
+        """A value derived from the graph, rebuilt when the version changes (vocabulary, rule tables…)."""
+        v = self.version
+        with self._cache_lock:
+            hit = self._cache.get(key)
+            if hit is not None and hit[0] == v:
+                return hit[1]  # type: ignore[no-any-return]
+        value = build()
+        # a commit between reading v and building is caught by the next call's version check
+        with self._cache_lock:
+            self._cache[key] = (v, value)
+        return value
+
+    def shapes(self) -> validation.Shapes:
+        return self.cached("shapes", lambda: validation.extract_shapes(self.backend))
+
+    def vocabulary(self):  # type: ignore[no-untyped-def]
+        from .vocab import Vocabulary
+
+        return self.cached("vocabulary", lambda: Vocabulary.load(self))
+
+    # ------------------------------------------------------------------ validating
+    def validate(self) -> validation.Report:
+        """Validate the whole graph against its shapes (about a second at 17k triples)."""
+        return validation.validate_graph(self.data_graph(), self.shapes())
+
+    def check(self, change: ChangeSet) -> validation.Report:
+        """Validate ``change`` against the current head without committing it."""
+        effective = self._effective(change)
+        return self._validate(effective)
+
+    def _validate(self, change: ChangeSet) -> validation.Report:
+        shapes = self.shapes()
+        if validation.touches_shapes(change, shapes) or self.version == 0:
+            candidate = self.data_graph()
+            for t in change.removed:
+                candidate.remove(t)
+            for t in change.added:
+                candidate.add(t)
+            new_shapes = validation.shapes_in(candidate)
+            return validation.validate_graph(candidate, new_shapes)
+        return validation.validate_change(self.backend, change, shapes)
+
+    # ------------------------------------------------------------------ writing
+    def _present(self, triples: Iterable[Triple]) -> set[Triple]:
+        present: set[Triple] = set()
+        items = list(triples)
+        for i in range(0, len(items), 500):
+            batch = items[i : i + 500]
+            values = " ".join(f"({n3(s)} {n3(p)} {n3(o)})" for s, p, o in batch)
+            res = self.backend.select(f"SELECT ?s ?p ?o WHERE {{ VALUES (?s ?p ?o) {{ {values} }} ?s ?p ?o }}")
+            present.update((r["s"], r["p"], r["o"]) for r in res.rows)
+        return present
+
+    def _effective(self, change: ChangeSet) -> ChangeSet:
+        """Drop additions already present and removals of absent triples: versions record real changes."""
+        present = self._present(change.added | change.removed)
+        return ChangeSet(added=change.added - present, removed=change.removed & present)
+
+    def commit(
+        self,
+        change: ChangeSet,
+        *,
+        author: str,
+        message: str = "",
+        expected_version: int | None = None,
+        retries: int = 5,
+    ) -> CommitResult:
+        """Apply ``change`` as one transaction: validate the touched nodes, then commit atomically.
+
+        Raises ValidationFailed (nothing written) when SHACL rejects the candidate state,
+        PreconditionFailed when ``expected_version`` is not the head, Conflict when other writers kept
+        winning for ``retries`` attempts. When another writer commits first, the change is re-checked
+        against the new head and retried (unless ``expected_version`` pins the head).
+        """
+        if any(isinstance(x, rdflib.BNode) for t in change.added | change.removed for x in t):
+            raise BadInput("change sets must not contain blank nodes; build them with graph_triples()")
+        with self._write_lock:
+            for attempt in range(retries + 1):
+                head = self.version
+                if expected_version is not None and expected_version != head:
+                    raise PreconditionFailed(
+                        f"the graph is at version {head}, not {expected_version}; re-read and retry",
+                        current_version=head,
+                    )
+                effective = self._effective(change)
+                if effective.empty:
+                    return CommitResult(version=head, changed=False)
+                report = self._validate(effective)
+                if not report.conforms:
+                    raise ValidationFailed(report.violations, report.text, current_version=head)
+                if self._try_commit(effective, head, author, message):
+                    return CommitResult(
+                        version=head + 1, changed=True, added=len(effective.added), removed=len(effective.removed), report=report
+                    )
+                time.sleep(random.uniform(0.005, 0.05) * (attempt + 1))
+            raise Conflict(
+                f"other writers kept committing first ({retries + 1} attempts); the change was not applied, retry",
+                current_version=self.version,
+            )
+
+    def _try_commit(self, change: ChangeSet, head: int, author: str, message: str) -> bool:
+        """Claim version head+1, and write it if the claim is uncontested; False if another writer won.
+
+        Mutual exclusion needs only that each insert and each read is atomic and sees what committed
+        before it: every writer inserts its claim, *then* reads all claims for the version. If two
+        writers both found theirs alone, each read would precede the other's insert, which precede
+        their own reads — a cycle. (A SPARQL server's DELETE/INSERT … WHERE is no compare-and-swap:
+        Oxigraph 0.5 evaluates its WHERE on a snapshot, and two guarded updates can both pass.)
+        Claims older than CLAIM_TTL_S — a writer that died between claim and commit — are ignored.
+        """
+        new = head + 1
+        commit_id = uuid.uuid4().hex
+        claim = URIRef(f"urn:nfex:claim:{new}:{commit_id}")
+        now = datetime.now(UTC)
+        stamp = Literal(now.isoformat(), datatype=XSD.dateTime)
+        self.backend.update(
+            f"{_prefix_block()}INSERT DATA {{ GRAPH {n3(META)} {{ {n3(claim)} nfex:claimsVersion {new} ; nfex:claimedAt {n3(stamp)} }} }}"
+        )
+        cutoff = Literal((now - timedelta(seconds=CLAIM_TTL_S)).isoformat(), datatype=XSD.dateTime)
+        rivals = self.select(
+            f"SELECT ?c WHERE {{ GRAPH {n3(META)} {{ ?c nfex:claimsVersion {new} ; nfex:claimedAt ?at }} "
+            f"FILTER (?c != {n3(claim)} && ?at > {n3(cutoff)}) }}"
+        ).rows
+        if rivals or self.version != head:
+            self.backend.update(f"DELETE WHERE {{ GRAPH {n3(META)} {{ {n3(claim)} ?p ?o }} }}")
+            return False
+        self.backend.update(self._commit_update(change, head, new, author, message, commit_id))
+        return self.ask(f"ASK {{ GRAPH {n3(META)} {{ {n3(version_iri(new))} nfex:commitId {n3(Literal(commit_id))} }} }}")
+
+    def _commit_update(
+        self, change: ChangeSet, head: int, new: int, author: str, message: str, commit_id: str
+    ) -> str:
+        """One SPARQL Update that writes the change, its change set, the version node and the new head.
+
+        Guarded by the head still being ``head``; it also drops the claims on versions up to ``new``.
+        """
+        now = Literal(datetime.now(UTC).isoformat(timespec="milliseconds"), datatype=XSD.dateTime)
+        v = version_iri(new)
+        meta = [
+            (v, RDF.type, NFEX.GraphVersion),
+            (v, NFEX.versionNumber, Literal(new)),
+            (v, NFEX.author, Literal(author)),
+            (v, PROV.generatedAtTime, now),
+            (v, DCTERMS.description, Literal(message)),
+            (v, NFEX.addedCount, Literal(len(change.added))),
+            (v, NFEX.removedCount, Literal(len(change.removed))),
+            (v, NFEX.commitId, Literal(commit_id)),
+            (HEAD, NFEX.versionNumber, Literal(new)),
+        ]
+        lines = [_prefix_block(), "DELETE {"]
+        lines += [triple_n3(t) for t in change.removed]
+        lines.append(f"GRAPH {n3(META)} {{ {n3(HEAD)} nfex:versionNumber {head} }}")
+        lines.append("} INSERT {")
+        lines += [triple_n3(t) for t in change.added]
+        lines.append(f"GRAPH {n3(META)} {{")
+        lines += [triple_n3(t) for t in meta]
+        lines.append("}")
+        if change.added:
+            lines.append(f"GRAPH {n3(added_graph(new))} {{")
+            lines += [triple_n3(t) for t in change.added]
+            lines.append("}")
+        if change.removed:
+            lines.append(f"GRAPH {n3(removed_graph(new))} {{")
+            lines += [triple_n3(t) for t in change.removed]
+            lines.append("}")
+        lines.append(f"}} WHERE {{ GRAPH {n3(META)} {{ {n3(HEAD)} nfex:versionNumber {head} }} }}")
+        # claims for this and earlier versions are settled now (losers' and dead writers' included)
+        lines.append(
+            f";\nDELETE {{ GRAPH {n3(META)} {{ ?c ?p ?o }} }} WHERE {{ GRAPH {n3(META)} {{ ?c nfex:claimsVersion ?n ; ?p ?o . "
+            f"FILTER (?n <= {new}) }} }}"
+        )
+        return "\n".join(lines)
+
+    def add(self, graph: rdflib.Graph, *, author: str, message: str = "", expected_version: int | None = None) -> CommitResult:
+        return self.commit(ChangeSet.adding(graph_triples(graph)), author=author, message=message, expected_version=expected_version)
+
+    def remove(self, graph: rdflib.Graph, *, author: str, message: str = "", expected_version: int | None = None) -> CommitResult:
+        return self.commit(ChangeSet.removing(graph_triples(graph)), author=author, message=message, expected_version=expected_version)
+
+    def update(self, sparql_update: str, *, author: str, message: str = "", expected_version: int | None = None) -> CommitResult:
+        """Run a SPARQL 1.1 Update as a checked transaction.
+
+        The update is evaluated on a copy of the affected data to find what it would add and remove;
+        that change set then goes through ``commit`` like any other write.
+        """
+        from .sparql_update import change_of_update
+
+        change = change_of_update(self, sparql_update)
+        return self.commit(change, author=author, message=message or "SPARQL update", expected_version=expected_version)
+
+    # ------------------------------------------------------------------ versions
+    def versions(self, limit: int | None = None) -> list[Version]:
+        q = (
+            f"SELECT ?n ?author ?time ?msg ?a ?r WHERE {{ GRAPH {n3(META)} {{ ?v a nfex:GraphVersion ; "
+            "nfex:versionNumber ?n ; nfex:author ?author ; prov:generatedAtTime ?time ; "
+            "dcterms:description ?msg ; nfex:addedCount ?a ; nfex:removedCount ?r } } ORDER BY DESC(?n)"
+        )
+        if limit:
+            q += f" LIMIT {int(limit)}"
+        rows = self.select(q).rows
+        return [
+            Version(
+                number=int(r["n"].toPython()),  # type: ignore[union-attr]
+                author=str(r["author"]),
+                time=r["time"].toPython() if isinstance(r["time"].toPython(), datetime) else None,  # type: ignore[union-attr]
+                message=str(r["msg"]),
+                added=int(r["a"].toPython()),  # type: ignore[union-attr]
+                removed=int(r["r"].toPython()),  # type: ignore[union-attr]
+            )
+            for r in rows
+        ]
+
+    def version_info(self, number: int) -> Version:
+        for v in self.versions():
+            if v.number == number:
+                return v
+        raise NotFound(f"no graph version {number}; the head is {self.version}")
+
+    def changes(self, number: int) -> ChangeSet:
+        """The change set that version ``number`` committed."""
+        self.version_info(number)
+        added = self.backend.construct(f"CONSTRUCT {{ ?s ?p ?o }} WHERE {{ GRAPH {n3(added_graph(number))} {{ ?s ?p ?o }} }}")
+        removed = self.backend.construct(
+            f"CONSTRUCT {{ ?s ?p ?o }} WHERE {{ GRAPH {n3(removed_graph(number))} {{ ?s ?p ?o }} }}"
+        )
+        return ChangeSet(added=frozenset(added), removed=frozenset(removed))
+
+    def diff(self, since: int, until: int | None = None) -> ChangeSet:
+        """The net change from version ``since`` to version ``until`` (default: the head)."""
+        until = self.version if until is None else until
+        if not 0 <= since <= self.version or not 0 <= until <= self.version:
+            raise NotFound(f"versions must lie in 0..{self.version}")
+        net = ChangeSet()
+        if since <= until:
+            for n in range(since + 1, until + 1):
+                net = net.then(self.changes(n))
+        else:
+            for n in range(since, until, -1):
+                net = net.then(self.changes(n).inverse())
+        return net
+
+    def rollback(self, to: int, *, author: str, expected_version: int | None = None) -> CommitResult:
+        """Restore the knowledge of version ``to`` as a new version (history is kept, like git revert)."""
+        head = self.version
+        if not 0 <= to <= head:
+            raise NotFound(f"no graph version {to}; the head is {head}")
+        if to == head:
+            return CommitResult(version=head, changed=False)
+        change = self.diff(head, to)
+        return self.commit(change, author=author, message=f"rollback to version {to}", expected_version=expected_version)

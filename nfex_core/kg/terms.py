@@ -1,0 +1,164 @@
+"""RDF terms across the boundaries: pyoxigraph, SPARQL JSON results, SPARQL text, skolem IRIs.
+
+rdflib terms are the lingua franca of nfex_core. Two normalisations keep term equality exact across
+a round trip through any store: a literal typed ``xsd:string`` becomes a plain literal (RDF 1.1 makes
+them the same term, rdflib does not), and blank nodes are skolemised (RDF 1.1 Concepts §3.5) because a
+blank node cannot be addressed by a later request — a DELETE of a blank node matches nothing.
+"""
+from __future__ import annotations
+
+import hashlib
+from decimal import Decimal
+from collections.abc import Iterable
+
+import pyoxigraph as ox
+import rdflib
+from rdflib.compare import to_canonical_graph
+from rdflib.namespace import XSD
+from rdflib.term import BNode, Literal, Node, URIRef
+
+from ..namespaces import GENID
+
+Triple = tuple[Node, Node, Node]
+
+
+_INTEGERS = {XSD.integer, XSD.int, XSD.long, XSD.short, XSD.byte, XSD.nonNegativeInteger, XSD.positiveInteger,
+             XSD.nonPositiveInteger, XSD.negativeInteger, XSD.unsignedInt, XSD.unsignedLong}
+
+
+def plain(lit: Literal) -> Literal:
+    """One lexical form per value, so the same literal compares equal wherever it was read from.
+
+    Stores canonicalise differently (Oxigraph writes ``"0.0"^^xsd:decimal`` as ``"0"`` per XSD 1.1;
+    rdflib keeps XSD 1.0's ``"0.0"``). Literals typed xsd:string become plain literals (RDF 1.1 makes
+    them one term). Ill-typed lexical forms are kept as they are.
+    """
+    dt = lit.datatype
+    if dt is None or lit.language:
+        return lit
+    if dt == XSD.string:
+        return Literal(str(lit))
+    try:
+        if dt in _INTEGERS:
+            return Literal(str(int(str(lit).strip())), datatype=dt)
+        if dt == XSD.decimal:
+            value = Decimal(str(lit).strip())
+            if not value.is_finite():
+                return lit
+            text = str(int(value)) if value == value.to_integral_value() else format(value.normalize(), "f")
+            return Literal(text, datatype=dt)
+        if dt in (XSD.double, XSD.float):
+            return Literal(repr(float(str(lit).strip())), datatype=dt)
+        if dt == XSD.boolean:
+            text = str(lit).strip()
+            if text in ("true", "1"):
+                return Literal("true", datatype=dt)
+            if text in ("false", "0"):
+                return Literal("false", datatype=dt)
+    except (ValueError, ArithmeticError):
+        return lit
+    return lit
+
+
+def from_oxigraph(term: object) -> Node:
+    if isinstance(term, ox.NamedNode):
+        return URIRef(term.value)
+    if isinstance(term, ox.BlankNode):
+        return BNode(term.value)
+    if isinstance(term, ox.Literal):
+        if term.language:
+            return Literal(term.value, lang=term.language)
+        return plain(Literal(term.value, datatype=URIRef(term.datatype.value)))
+    raise TypeError(f"unsupported term {term!r}")
+
+
+def from_sparql_json(b: dict[str, str]) -> Node:
+    kind = b["type"]
+    if kind == "uri":
+        return URIRef(b["value"])
+    if kind == "bnode":
+        return BNode(b["value"])
+    if "xml:lang" in b:
+        return Literal(b["value"], lang=b["xml:lang"])
+    dt = b.get("datatype")
+    if dt:
+        return plain(Literal(b["value"], datatype=URIRef(dt)))
+    return Literal(b["value"])
+
+
+def n3(term: Node) -> str:
+    """A term in SPARQL/N-Triples syntax."""
+    if isinstance(term, URIRef):
+        return f"<{term}>"
+    if isinstance(term, Literal):
+        return plain(term).n3()
+    raise ValueError(f"blank node {term} cannot be written to the store; skolemise first")
+
+
+def triple_n3(t: Triple) -> str:
+    return f"{n3(t[0])} {n3(t[1])} {n3(t[2])} ."
+
+
+def normalise(graph: Iterable[Triple]) -> set[Triple]:
+    """Triples with plain literals; blank nodes must already be skolemised."""
+    out: set[Triple] = set()
+    for s, p, o in graph:
+        if isinstance(s, BNode) or isinstance(o, BNode):
+            raise ValueError("normalise() needs a skolemised graph")
+        out.add((s, p, plain(o) if isinstance(o, Literal) else o))
+    return out
+
+
+def skolemise(graph: rdflib.Graph) -> rdflib.Graph:
+    """Replace blank nodes by IRIs that depend only on what surrounds them.
+
+    Blank nodes are grouped into connected components; each component, with the triples that touch
+    it, is relabelled canonically (rdflib.compare, after Hogan's algorithm) and its IRIs are hashes of
+    those canonical labels. So the same description skolemises to the same IRIs every time, whatever
+    else the file or the seed contains: adding and later removing a file with blank nodes addresses the
+    same nodes, and editing one part of the ontology does not rename blank nodes elsewhere.
+    Graphs without blank nodes are returned unchanged.
+    """
+    touching = [t for t in graph if isinstance(t[0], BNode) or isinstance(t[2], BNode)]
+    if not touching:
+        return graph
+    parent: dict[Node, Node] = {}
+
+    def find(x: Node) -> Node:
+        while parent.setdefault(x, x) != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    for s, _, o in touching:
+        if isinstance(s, BNode) and isinstance(o, BNode):
+            parent[find(s)] = find(o)
+    components: dict[Node, rdflib.Graph] = {}
+    for t in touching:
+        b = t[0] if isinstance(t[0], BNode) else t[2]
+        components.setdefault(find(b), rdflib.Graph()).add(t)
+
+    out = rdflib.Graph()
+    for prefix, ns in graph.namespaces():
+        out.bind(prefix, ns, override=False)
+    for t in graph:
+        if not (isinstance(t[0], BNode) or isinstance(t[2], BNode)):
+            out.add(t)
+
+    for component in components.values():
+        canon = to_canonical_graph(component)
+        # canonical labels are only unique within a component: qualify them by its content
+        digest = hashlib.sha1("\n".join(sorted(" ".join(x.n3() for x in t) for t in canon)).encode()).hexdigest()
+
+        def sk(t: Node, digest: str = digest) -> Node:
+            if isinstance(t, BNode):
+                return URIRef(GENID + hashlib.sha1((digest + str(t)).encode()).hexdigest()[:20])
+            return t
+
+        for s, p, o in canon:
+            out.add((sk(s), p, sk(o)))
+    return out
+
+
+def is_skolem(term: Node) -> bool:
+    return isinstance(term, URIRef) and str(term).startswith(GENID)

@@ -1,0 +1,377 @@
+"""A typed view of the graph's vocabulary: extractors, parameters, condition dimensions, metrics.
+
+Everything that accepts a name from a user — the HTTP API, the CLI, the DSL, the registry — checks it
+here, so an unknown name is rejected with the names the graph knows, and adding a value to the
+ontology extends every interface without code. Built once per graph version
+(``KnowledgeGraph.vocabulary()``).
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from rdflib.namespace import XSD
+from rdflib.term import Literal, URIRef
+
+from ..errors import ParameterError, UnknownName
+
+if TYPE_CHECKING:
+    from .store import KnowledgeGraph
+
+Value = int | float | bool
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    iri: URIRef
+    extractor: str
+    name: str
+    datatype: str  # "integer" | "double" | "boolean"
+    role: str  # "NF" | "SF" | "NL" | "ST" | "other"
+    default: Value
+    min: Value | None = None
+    max: Value | None = None
+    allowed: tuple[Value, ...] | None = None
+    tunable: bool = False
+    scales_with_resolution: bool = False
+    label: str = ""
+    comment: str = ""
+
+    @property
+    def qualified(self) -> str:
+        return f"{self.extractor}.{self.name}"
+
+    def range_text(self) -> str:
+        if self.allowed is not None:
+            return "one of {" + ", ".join(str(a) for a in self.allowed) + "}"
+        if self.datatype == "boolean":
+            return "true or false"
+        return f"[{self.min}, {self.max}] ({self.datatype})"
+
+    def coerce(self, value: Any) -> Value:
+        """``value`` as this parameter's Python type, or ParameterError naming the parameter and its range."""
+        where = f"{self.qualified} = {value!r}"
+        if self.datatype == "boolean":
+            if isinstance(value, bool):
+                return value
+            if isinstance(value, str) and value.lower() in ("true", "false"):
+                return value.lower() == "true"
+            raise ParameterError(f"{where} is not a boolean; allowed: {self.range_text()}", parameter=self.qualified)
+        if isinstance(value, bool):
+            raise ParameterError(f"{where} is not a number; allowed: {self.range_text()}", parameter=self.qualified)
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            raise ParameterError(f"{where} is not a number; allowed: {self.range_text()}", parameter=self.qualified) from None
+        if self.datatype == "integer":
+            if number != int(number):
+                raise ParameterError(f"{where} is not an integer; allowed: {self.range_text()}", parameter=self.qualified)
+            out: Value = int(number)
+        else:
+            out = number
+        return out
+
+    def validate(self, value: Any) -> Value:
+        """Coerce and check the range (or the allowed values)."""
+        v = self.coerce(value)
+        if self.allowed is not None and v not in self.allowed:
+            raise ParameterError(f"{self.qualified} = {value!r} is not allowed; allowed: {self.range_text()}", parameter=self.qualified)
+        if isinstance(v, bool):
+            return v
+        if (self.min is not None and v < self.min) or (self.max is not None and v > self.max):
+            raise ParameterError(
+                f"{self.qualified} = {value!r} is outside its range {self.range_text()}", parameter=self.qualified
+            )
+        return v
+
+    def clamp(self, value: float) -> Value:
+        """Round to the datatype and clamp into the range (or to the nearest allowed value)."""
+        if self.datatype == "boolean":
+            return bool(value)
+        if self.allowed is not None:
+            return min(self.allowed, key=lambda a: (abs(float(a) - value), a))
+        lo = float(self.min) if self.min is not None else -float("inf")
+        hi = float(self.max) if self.max is not None else float("inf")
+        v = min(max(float(value), lo), hi)
+        return int(round(v)) if self.datatype == "integer" else v
+
+    def literal(self, value: Value) -> Literal:
+        dt = {"integer": XSD.integer, "double": XSD.double, "boolean": XSD.boolean}[self.datatype]
+        return Literal(value, datatype=dt)
+
+
+@dataclass(frozen=True)
+class NormRuleSpec:
+    parameter: str
+    values: tuple[Value, ...]
+    norm: str
+
+
+@dataclass(frozen=True)
+class ExtractorSpec:
+    iri: URIRef
+    name: str
+    label: str
+    constructor: str
+    norm: str
+    descriptor_kind: str  # "binary" | "real"
+    parameters: Mapping[str, ParameterSpec]
+    norm_rules: tuple[NormRuleSpec, ...] = ()
+    operations: tuple[str, ...] = ()
+    comment: str = ""
+
+    def parameter(self, name: str) -> ParameterSpec:
+        try:
+            return self.parameters[name]
+        except KeyError:
+            raise UnknownName("parameter", f"{self.name}.{name}", [f"{self.name}.{p}" for p in self.parameters]) from None
+
+    def defaults(self) -> dict[str, Value]:
+        return {n: p.default for n, p in self.parameters.items()}
+
+    def resolve(self, params: Mapping[str, Any] | None = None) -> dict[str, Value]:
+        """Defaults overridden by ``params``, each validated against the graph's datatype and range."""
+        out = self.defaults()
+        for name, value in (params or {}).items():
+            out[name] = self.parameter(name).validate(value)
+        return out
+
+    def norm_for(self, params: Mapping[str, Value]) -> str:
+        for rule in self.norm_rules:
+            if params.get(rule.parameter) in rule.values:
+                return rule.norm
+        return self.norm
+
+
+@dataclass(frozen=True)
+class ConditionValueSpec:
+    iri: URIRef
+    dimension: str
+    name: str
+    label: str = ""
+    ordinal: int | None = None
+
+
+@dataclass(frozen=True)
+class DimensionSpec:
+    iri: URIRef
+    name: str
+    label: str
+    estimable: bool
+    values: Mapping[str, ConditionValueSpec]
+
+    def value(self, name: str) -> ConditionValueSpec:
+        try:
+            return self.values[name]
+        except KeyError:
+            raise UnknownName(f"value of {self.name}", name, self.values) from None
+
+
+@dataclass(frozen=True)
+class MetricSpec:
+    iri: URIRef
+    name: str
+    symbol: str
+    label: str
+    temporal: bool
+    higher_is_better: bool
+    formula: str = ""
+
+
+@dataclass(frozen=True)
+class Vocabulary:
+    version: int
+    extractors: Mapping[str, ExtractorSpec]
+    dimensions: Mapping[str, DimensionSpec]
+    metrics: Mapping[str, MetricSpec]
+    by_iri: Mapping[URIRef, object] = field(default_factory=dict)
+
+    def extractor(self, name: str) -> ExtractorSpec:
+        try:
+            return self.extractors[name]
+        except KeyError:
+            raise UnknownName("extractor", name, self.extractors) from None
+
+    def dimension(self, name: str) -> DimensionSpec:
+        try:
+            return self.dimensions[name]
+        except KeyError:
+            raise UnknownName("condition dimension", name, self.dimensions) from None
+
+    def metric(self, name: str) -> MetricSpec:
+        try:
+            return self.metrics[name]
+        except KeyError:
+            raise UnknownName("metric", name, self.metrics) from None
+
+    def condition_value(self, dimension: str, value: str) -> ConditionValueSpec:
+        return self.dimension(dimension).value(value)
+
+    def check_context(self, context: Mapping[str, str | None]) -> dict[str, str]:
+        """Validate a client's context (dimension → value); unknown names raise with what is allowed."""
+        out: dict[str, str] = {}
+        for dim, value in context.items():
+            if value is None:
+                continue
+            spec = self.dimension(dim)
+            out[dim] = spec.value(str(value)).name
+        return out
+
+    @classmethod
+    def load(cls, kg: KnowledgeGraph) -> Vocabulary:
+        version = kg.version
+        params: dict[str, dict[str, ParameterSpec]] = {}
+        prow = kg.select(
+            """SELECT ?p ?x ?xname ?name ?dt ?role ?default ?min ?max ?tunable ?scales ?label ?comment WHERE {
+                ?p a nfex:Parameter ; nfex:parameterOf ?x ; nfex:opencvName ?name ; nfex:datatype ?dt ;
+                   nfex:role/nfex:token ?role ; nfex:defaultValue ?default .
+                ?x nfex:token ?xname .
+                OPTIONAL { ?p nfex:minValue ?min } OPTIONAL { ?p nfex:maxValue ?max }
+                OPTIONAL { ?p nfex:tunable ?tunable } OPTIONAL { ?p nfex:scalesWithResolution ?scales }
+                OPTIONAL { ?p rdfs:label ?label } OPTIONAL { ?p rdfs:comment ?comment }
+            }"""
+        ).rows
+        allowed: dict[URIRef, list[Value]] = {}
+        for r in kg.select("SELECT ?p ?a WHERE { ?p a nfex:Parameter ; nfex:allowedValue ?a }").rows:
+            allowed.setdefault(r["p"], []).append(_py(r["a"]))  # type: ignore[arg-type]
+        for r in prow:
+            dt = str(r["dt"]).rsplit("#", 1)[-1]
+            spec = ParameterSpec(
+                iri=r["p"],  # type: ignore[arg-type]
+                extractor=str(r["xname"]),
+                name=str(r["name"]),
+                datatype=dt,
+                role=str(r["role"]),
+                default=_typed(r["default"], dt),
+                min=_typed(r["min"], dt) if "min" in r else None,
+                max=_typed(r["max"], dt) if "max" in r else None,
+                allowed=tuple(sorted(_typed_value(a, dt) for a in allowed[r["p"]])) if r["p"] in allowed else None,  # type: ignore[index]
+                tunable=bool(_py(r["tunable"])) if "tunable" in r else False,
+                scales_with_resolution=bool(_py(r["scales"])) if "scales" in r else False,
+                label=str(r.get("label", "")),
+                comment=str(r.get("comment", "")),
+            )
+            params.setdefault(spec.extractor, {})[spec.name] = spec
+
+        norm_rules: dict[str, list[NormRuleSpec]] = {}
+        for r in kg.select(
+            """SELECT ?xname ?pname ?norm (GROUP_CONCAT(STR(?v); separator=" ") AS ?vals) WHERE {
+                ?x nfex:token ?xname ; nfex:matchNormRule ?r .
+                ?r nfex:normParameter/nfex:opencvName ?pname ; nfex:matchNorm ?norm ; nfex:whenValue ?v .
+            } GROUP BY ?xname ?pname ?norm"""
+        ).rows:
+            values = tuple(_parse_number(v) for v in str(r["vals"]).split())
+            norm_rules.setdefault(str(r["xname"]), []).append(NormRuleSpec(str(r["pname"]), values, str(r["norm"])))
+
+        ops: dict[str, list[str]] = {}
+        for r in kg.select("SELECT ?xname ?op WHERE { ?x a nfex:FeatureExtractor ; nfex:token ?xname ; nfex:performs ?op }").rows:
+            ops.setdefault(str(r["xname"]), []).append(str(r["op"]).rsplit("#", 1)[-1])
+
+        extractors: dict[str, ExtractorSpec] = {}
+        for r in kg.select(
+            """SELECT ?x ?name ?ctor ?norm ?kind ?label ?comment WHERE {
+                ?x a nfex:FeatureExtractor ; nfex:token ?name ; nfex:opencvConstructor ?ctor ; nfex:matchNorm ?norm .
+                OPTIONAL { ?x nfex:descriptorKind ?kind } OPTIONAL { ?x rdfs:label ?label } OPTIONAL { ?x rdfs:comment ?comment }
+            } ORDER BY ?name"""
+        ).rows:
+            name = str(r["name"])
+            kind = "real" if str(r.get("kind", "")).endswith("RealDescriptor") else "binary"
+            extractors[name] = ExtractorSpec(
+                iri=r["x"],  # type: ignore[arg-type]
+                name=name,
+                label=str(r.get("label", name)),
+                constructor=str(r["ctor"]),
+                norm=str(r["norm"]),
+                descriptor_kind=kind,
+                parameters=dict(sorted(params.get(name, {}).items())),
+                norm_rules=tuple(norm_rules.get(name, [])),
+                operations=tuple(sorted(ops.get(name, []))),
+                comment=str(r.get("comment", "")),
+            )
+
+        values: dict[str, dict[str, ConditionValueSpec]] = {}
+        for r in kg.select(
+            """SELECT ?v ?dname ?name ?label ?ord WHERE {
+                ?v a nfex:ConditionValue ; nfex:inDimension/nfex:token ?dname ; nfex:token ?name .
+                OPTIONAL { ?v rdfs:label ?label } OPTIONAL { ?v nfex:ordinal ?ord }
+            } ORDER BY ?dname ?ord ?name"""
+        ).rows:
+            spec = ConditionValueSpec(
+                iri=r["v"],  # type: ignore[arg-type]
+                dimension=str(r["dname"]),
+                name=str(r["name"]),
+                label=str(r.get("label", "")),
+                ordinal=int(_py(r["ord"])) if "ord" in r else None,
+            )
+            values.setdefault(spec.dimension, {})[spec.name] = spec
+        dimensions: dict[str, DimensionSpec] = {}
+        for r in kg.select(
+            """SELECT ?d ?name ?label ?est WHERE {
+                ?d a nfex:ConditionDimension ; nfex:token ?name .
+                OPTIONAL { ?d rdfs:label ?label } OPTIONAL { ?d nfex:estimable ?est }
+            }"""
+        ).rows:
+            name = str(r["name"])
+            dimensions[name] = DimensionSpec(
+                iri=r["d"],  # type: ignore[arg-type]
+                name=name,
+                label=str(r.get("label", name)),
+                estimable=bool(_py(r["est"])) if "est" in r else False,
+                values=values.get(name, {}),
+            )
+        order = ["agent", "motion", "scene", "light", "reflectance", "texture"]
+        dimensions = dict(sorted(dimensions.items(), key=lambda kv: (order.index(kv[0]) if kv[0] in order else 99, kv[0])))
+
+        metrics: dict[str, MetricSpec] = {}
+        for r in kg.select(
+            """SELECT ?m ?name ?symbol ?label ?temporal ?hib ?formula WHERE {
+                ?m a nfex:QualityMetric ; nfex:token ?name ; nfex:symbol ?symbol ; nfex:temporal ?temporal .
+                OPTIONAL { ?m rdfs:label ?label } OPTIONAL { ?m nfex:higherIsBetter ?hib } OPTIONAL { ?m nfex:formula ?formula }
+            } ORDER BY ?symbol"""
+        ).rows:
+            name = str(r["name"])
+            metrics[name] = MetricSpec(
+                iri=r["m"],  # type: ignore[arg-type]
+                name=name,
+                symbol=str(r["symbol"]),
+                label=str(r.get("label", name)),
+                temporal=bool(_py(r["temporal"])),
+                higher_is_better=bool(_py(r["hib"])) if "hib" in r else True,
+                formula=str(r.get("formula", "")),
+            )
+        by_iri: dict[URIRef, object] = {}
+        for x in extractors.values():
+            by_iri[x.iri] = x
+            for p in x.parameters.values():
+                by_iri[p.iri] = p
+        for d in dimensions.values():
+            by_iri[d.iri] = d
+            for v in d.values.values():
+                by_iri[v.iri] = v
+        for m in metrics.values():
+            by_iri[m.iri] = m
+        return cls(version=version, extractors=extractors, dimensions=dimensions, metrics=metrics, by_iri=by_iri)
+
+
+def _py(term: object) -> Any:
+    return term.toPython() if isinstance(term, Literal) else term
+
+
+def _parse_number(text: str) -> Value:
+    try:
+        return int(text)
+    except ValueError:
+        return float(text)
+
+
+def _typed_value(v: Value, dt: str) -> Value:
+    if dt == "integer":
+        return int(v)
+    if dt == "double":
+        return float(v)
+    return bool(v)
+
+
+def _typed(term: object, dt: str) -> Value:
+    return _typed_value(_py(term), dt)

@@ -1,0 +1,43 @@
+"""Every error as RFC 9457 problem+json, rendered in one place."""
+from __future__ import annotations
+
+import logging
+
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+from starlette.exceptions import HTTPException as StarletteHTTPException
+
+from nfex_core.errors import PROBLEM_BASE, NfexError
+
+PROBLEM_JSON = "application/problem+json"
+log = logging.getLogger("nfex.service")
+
+
+def problem(status: int, type_: str, title: str, detail: str, **extra: object) -> JSONResponse:
+    body = {"type": PROBLEM_BASE + type_, "title": title, "status": status, "detail": detail, **extra}
+    return JSONResponse(body, status_code=status, media_type=PROBLEM_JSON)
+
+
+def install(app: FastAPI) -> None:
+    @app.exception_handler(NfexError)
+    async def _nfex(request: Request, exc: NfexError) -> JSONResponse:
+        if exc.status >= 500:
+            log.warning("%s %s: %s", request.method, request.url.path, exc.detail)
+        return JSONResponse(exc.problem(), status_code=exc.status, media_type=PROBLEM_JSON)
+
+    @app.exception_handler(RequestValidationError)
+    async def _validation(request: Request, exc: RequestValidationError) -> JSONResponse:
+        errors = [{"loc": list(e.get("loc", ())), "msg": e.get("msg", "")} for e in exc.errors()]
+        first = errors[0] if errors else {"loc": [], "msg": "invalid request"}
+        detail = f"{'.'.join(str(x) for x in first['loc'])}: {first['msg']}"
+        return problem(422, "invalid-request", "Invalid request", detail, errors=errors)
+
+    @app.exception_handler(StarletteHTTPException)
+    async def _http(request: Request, exc: StarletteHTTPException) -> JSONResponse:
+        return problem(exc.status_code, "http-" + str(exc.status_code), str(exc.detail), str(exc.detail))
+
+    @app.exception_handler(Exception)
+    async def _internal(request: Request, exc: Exception) -> JSONResponse:
+        log.exception("unhandled error on %s %s", request.method, request.url.path)
+        return problem(500, "internal-error", "Internal error", f"{type(exc).__name__}; see the service log")

@@ -1,0 +1,111 @@
+"""Fixtures shared by the whole suite: seeded stores, a real Oxigraph server, free ports, the data folder."""
+from __future__ import annotations
+
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import httpx
+import pytest
+
+from nfex_core.config import Settings
+from nfex_core.kg import KnowledgeGraph
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def free_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def wait_http(url: str, timeout: float = 30.0, proc: subprocess.Popen | None = None) -> None:  # type: ignore[type-arg]
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if proc is not None and proc.poll() is not None:
+            raise RuntimeError(f"process exited with {proc.returncode} before {url} answered")
+        try:
+            httpx.get(url, timeout=1.0)
+            return
+        except httpx.HTTPError:
+            time.sleep(0.1)
+    raise TimeoutError(f"{url} did not answer within {timeout} s")
+
+
+@pytest.fixture(scope="session")
+def seeded_template(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A store seeded once per test worker; tests get copies (seeding validates the seed: ~3 s)."""
+    path = tmp_path_factory.mktemp("seeded") / "store"
+    kg = KnowledgeGraph.open(str(path))
+    kg.backend.flush()  # type: ignore[attr-defined]
+    kg.close()
+    del kg
+    return path
+
+
+@pytest.fixture
+def store_path(seeded_template: Path, tmp_path: Path) -> Path:
+    """A fresh copy of the seeded store in this test's folder."""
+    dest = tmp_path / "store"
+    shutil.copytree(seeded_template, dest, ignore=shutil.ignore_patterns("LOCK"))
+    return dest
+
+
+@pytest.fixture
+def kg(store_path: Path) -> Iterator[KnowledgeGraph]:
+    graph = KnowledgeGraph.open(str(store_path), seed=False)
+    yield graph
+    graph.close()
+
+
+@pytest.fixture
+def oxigraph_server(tmp_path: Path) -> Iterator[str]:
+    """A real ``oxigraph serve`` process on a free loopback port; yields its base URL."""
+    exe = shutil.which("oxigraph") or str(Path(sys.executable).parent / "oxigraph")
+    if not Path(exe).exists():
+        pytest.skip("the oxigraph server binary is not installed (pip install oxigraph)")
+    port = free_port()
+    proc = subprocess.Popen(
+        [exe, "serve", "--location", str(tmp_path / "oxigraph"), "--bind", f"127.0.0.1:{port}"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    url = f"http://127.0.0.1:{port}"
+    try:
+        wait_http(url + "/query?query=ASK%7B%7D", proc=proc)
+        yield url
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+
+
+@pytest.fixture(scope="session")
+def data_dir() -> Path:
+    """../shared/data (or $NFEX_DATA); tests that need real sequences skip where it is absent."""
+    path = Settings.from_env().data
+    if not path.is_dir():
+        pytest.skip(f"dataset folder {path} is absent (set NFEX_DATA)")
+    return path
+
+
+@pytest.fixture
+def cli_env(store_path: Path) -> dict[str, str]:
+    env = dict(os.environ)
+    env["NFEX_STORE"] = str(store_path)
+    env["NFEX_AUTHOR"] = "test"
+    return env
+
+
+def run_cli(args: list[str], env: dict[str, str], input: str | None = None) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "nfex_core.cli.main", *args], env=env, capture_output=True, text=True, input=input, timeout=120
+    )

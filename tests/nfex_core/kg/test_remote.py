@@ -1,0 +1,115 @@
+"""The same transactions against a real `oxigraph serve` process, shared by several clients."""
+from __future__ import annotations
+
+import threading
+
+import pytest
+from rdflib import Literal
+from rdflib.namespace import RDFS
+
+from nfex_core.errors import Conflict, ParseError, StoreUnavailable, ValidationFailed
+from nfex_core.kg import ChangeSet, KnowledgeGraph, parse_rdf
+from nfex_core.kg.backends import RemoteBackend
+from nfex_core.namespaces import NFEX
+
+CONFIG = """@prefix nfex: <https://w3id.org/nfex#> .
+nfex:cfg1 a nfex:Configuration ; nfex:ofExtractor nfex:ORB ; nfex:hasSetting nfex:cfg1_nf .
+nfex:cfg1_nf a nfex:ParameterSetting ; nfex:parameter nfex:ORB_nfeatures ; nfex:value 1000 ."""
+
+
+def test_seed_query_commit_rollback_over_http(oxigraph_server: str) -> None:
+    kg = KnowledgeGraph.open(oxigraph_server)
+    assert kg.version == 1
+    params = kg.select("SELECT ?p WHERE { ?p a nfex:Parameter }")
+    assert len(params) == 26  # ORB 9, SIFT 6, AKAZE 8, BRISK 3
+    before = set(kg.data_graph())
+    assert kg.add(parse_rdf(CONFIG), author="a").version == 2
+    with pytest.raises(ValidationFailed):
+        kg.add(parse_rdf(CONFIG.replace("1000", "-1").replace("cfg1", "cfg2")), author="a")
+    assert kg.version == 2
+    kg.rollback(1, author="a")
+    assert set(kg.data_graph()) == before
+    with pytest.raises(ParseError):
+        kg.select("SELECT nonsense")
+
+
+def test_a_second_node_sees_the_same_graph(oxigraph_server: str) -> None:
+    a = KnowledgeGraph.open(oxigraph_server)
+    b = KnowledgeGraph.open(oxigraph_server)
+    a.add(parse_rdf(CONFIG), author="a")
+    assert b.version == 2
+    assert b.ask("ASK { nfex:cfg1 nfex:ofExtractor nfex:ORB }")
+
+
+def test_concurrent_writers_never_lose_a_change(oxigraph_server: str) -> None:
+    """Two nodes commit at once; compare-and-swap lets exactly one win each round, the other retries."""
+    nodes = [KnowledgeGraph.open(oxigraph_server) for _ in range(4)]
+    per_node = 5
+    errors: list[Exception] = []
+
+    def writer(i: int) -> None:
+        kg = nodes[i]
+        for j in range(per_node):
+            change = ChangeSet.adding([(NFEX[f"note_{i}_{j}"], RDFS.comment, Literal(f"note {i}-{j}"))])
+            for _ in range(50):
+                try:
+                    kg.commit(change, author=f"node{i}")
+                    break
+                except Conflict:
+                    continue
+            else:
+                errors.append(RuntimeError(f"node {i} never committed"))
+
+    threads = [threading.Thread(target=writer, args=(i,)) for i in range(len(nodes))]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors
+    notes = {str(o) for o in nodes[0].data_graph().objects(None, RDFS.comment) if str(o).startswith("note")}
+    assert notes == {f"note {i}-{j}" for i in range(len(nodes)) for j in range(per_node)}
+    versions = [v.number for v in nodes[0].versions(limit=None)]
+    assert sorted(versions) == list(range(1, 2 + len(nodes) * per_node))
+
+
+def test_unreachable_server_is_a_clear_error() -> None:
+    from tests.conftest import free_port
+
+    with pytest.raises(StoreUnavailable, match="cannot reach"):
+        KnowledgeGraph(RemoteBackend(f"http://127.0.0.1:{free_port()}"))
+
+
+def test_endpoint_urls_follow_server_conventions() -> None:
+    assert RemoteBackend("http://h:7878").update_url == "http://h:7878/update"
+    assert RemoteBackend("http://h:7878").query_url == "http://h:7878/query"
+    fuseki = RemoteBackend("http://h:3030/ds/query")
+    assert (fuseki.query_url, fuseki.update_url) == ("http://h:3030/ds/query", "http://h:3030/ds/update")
+
+
+def test_writes_valid_alone_but_not_together_cannot_both_land(oxigraph_server: str) -> None:
+    """Write skew: two nodes each add an ORB parameter named "extra" — each valid alone. Commits are
+    serialised and each is validated against the head it lands on, so exactly one lands."""
+    nodes = [KnowledgeGraph.open(oxigraph_server) for _ in range(2)]
+    outcomes: list[str] = []
+    barrier = threading.Barrier(2)
+
+    def writer(i: int) -> None:
+        g = parse_rdf(
+            f"""@prefix nfex: <https://w3id.org/nfex#> . @prefix xsd: <http://www.w3.org/2001/XMLSchema#> .
+            nfex:ORB_extra{i} a nfex:Parameter ; nfex:parameterOf nfex:ORB ; nfex:opencvName "extra" ;
+                nfex:role nfex:OtherRole ; nfex:datatype xsd:integer ; nfex:defaultValue 1 ."""
+        )
+        barrier.wait()
+        try:
+            nodes[i].add(g, author=f"node{i}")
+            outcomes.append("landed")
+        except ValidationFailed:
+            outcomes.append("rejected")
+
+    threads = [threading.Thread(target=writer, args=(i,)) for i in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert sorted(outcomes) == ["landed", "rejected"]
+    assert nodes[0].version == 2

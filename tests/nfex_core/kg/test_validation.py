@@ -1,0 +1,136 @@
+"""Incremental validation agrees with validating the whole candidate graph.
+
+Random writes — new configurations, edited parameter ranges, removed triples, new condition values
+and measurements — are checked both ways on a seeded graph that already holds configurations (so a
+narrowed range can break them). The verdict must be the same, and every violation the incremental
+path reports must be one the whole-graph run reports too.
+"""
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from rdflib import Literal, URIRef
+from rdflib.namespace import RDF, XSD
+
+from nfex_core.kg import ChangeSet, KnowledgeGraph, parse_rdf
+from nfex_core.kg.validation import validate_graph
+from nfex_core.namespaces import NFEX, SOSA
+
+BASE = """@prefix nfex: <https://w3id.org/nfex#> .
+nfex:base_orb a nfex:Configuration ; nfex:ofExtractor nfex:ORB ; nfex:hasSetting nfex:base_orb_sf, nfex:base_orb_nf .
+nfex:base_orb_sf a nfex:ParameterSetting ; nfex:parameter nfex:ORB_scaleFactor ; nfex:value 1.5 .
+nfex:base_orb_nf a nfex:ParameterSetting ; nfex:parameter nfex:ORB_nfeatures ; nfex:value 2000 .
+nfex:base_sift a nfex:Configuration ; nfex:ofExtractor nfex:SIFT ; nfex:hasSetting nfex:base_sift_ct .
+nfex:base_sift_ct a nfex:ParameterSetting ; nfex:parameter nfex:SIFT_contrastThreshold ; nfex:value 0.02 .
+nfex:seq a nfex:Sequence .
+"""
+
+PARAMS = ["ORB_scaleFactor", "ORB_nfeatures", "ORB_nlevels", "ORB_WTA_K", "SIFT_contrastThreshold", "SIFT_nfeatures", "BRISK_thresh"]
+
+
+@pytest.fixture(scope="module")
+def graph(tmp_path_factory: pytest.TempPathFactory, seeded_template) -> Iterator[tuple[KnowledgeGraph, object, object]]:  # type: ignore[no-untyped-def]
+    import shutil
+
+    path = tmp_path_factory.mktemp("agree") / "store"
+    shutil.copytree(seeded_template, path, ignore=shutil.ignore_patterns("LOCK"))
+    kg = KnowledgeGraph.open(str(path), seed=False)
+    kg.add(parse_rdf(BASE), author="test")
+    yield kg, kg.data_graph(), kg.shapes()
+    kg.close()
+
+
+number = st.one_of(
+    st.integers(-5, 30000).map(lambda i: Literal(i)),
+    st.floats(-1, 3, allow_nan=False).map(lambda f: Literal(f, datatype=XSD.double)),
+)
+
+
+@st.composite
+def new_configuration(draw) -> ChangeSet:  # type: ignore[no-untyped-def]
+    n = draw(st.integers(0, 10**6))
+    cfg = NFEX[f"cfg_{n}"]
+    extractor = draw(st.sampled_from(["ORB", "SIFT", "BRISK"]))
+    triples = [(cfg, RDF.type, NFEX.Configuration), (cfg, NFEX.ofExtractor, NFEX[extractor])]
+    for k, param in enumerate(draw(st.lists(st.sampled_from(PARAMS), max_size=3))):
+        s = NFEX[f"cfg_{n}_{k}"]
+        triples += [(cfg, NFEX.hasSetting, s), (s, RDF.type, NFEX.ParameterSetting), (s, NFEX.parameter, NFEX[param])]
+        triples.append((s, NFEX.value, draw(number)))
+    return ChangeSet.adding(triples)
+
+
+@st.composite
+def edit_parameter(draw, data) -> ChangeSet:  # type: ignore[no-untyped-def]
+    p = NFEX[draw(st.sampled_from(PARAMS))]
+    prop = draw(st.sampled_from([NFEX.minValue, NFEX.maxValue, NFEX.defaultValue]))
+    old = [(p, prop, o) for o in data.objects(p, prop)]
+    return ChangeSet.of(added=[(p, prop, draw(number))], removed=old)
+
+
+@st.composite
+def remove_triple(draw, data) -> ChangeSet:  # type: ignore[no-untyped-def]
+    p = NFEX[draw(st.sampled_from(PARAMS + ["ORB", "SIFT", "light_dark"]))]
+    triples = sorted(data.triples((p, None, None)), key=str)
+    return ChangeSet.removing([draw(st.sampled_from(triples))])
+
+
+@st.composite
+def new_condition_value(draw) -> ChangeSet:  # type: ignore[no-untyped-def]
+    v = NFEX[f"value_{draw(st.integers(0, 10**6))}"]
+    dims = draw(st.lists(st.sampled_from(["light", "texture", "motion"]), max_size=2, unique=True))
+    token = draw(st.sampled_from(["dark", "low", "dusk", "Bad Token"]))
+    return ChangeSet.adding([(v, RDF.type, NFEX.ConditionValue), (v, NFEX.token, Literal(token))] + [(v, NFEX.inDimension, NFEX[d]) for d in dims])
+
+
+@st.composite
+def new_measurement(draw) -> ChangeSet:  # type: ignore[no-untyped-def]
+    m = NFEX[f"meas_{draw(st.integers(0, 10**6))}"]
+    triples = [(m, RDF.type, NFEX.Measurement), (m, SOSA.usedProcedure, NFEX[draw(st.sampled_from(["base_orb", "base_sift", "nothing"]))])]
+    if draw(st.booleans()):
+        triples.append((m, NFEX.sequence, NFEX.seq))
+    triples.append((m, NFEX.ateRmse, Literal(draw(st.floats(-1, 5, allow_nan=False)), datatype=XSD.double)))
+    for c in draw(st.lists(st.sampled_from(["light_dark", "light_bright", "agent_car"]), max_size=2, unique=True)):
+        triples.append((m, NFEX.underCondition, NFEX[c]))
+    return ChangeSet.adding(triples)
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(data=st.data())
+def test_incremental_validation_agrees_with_whole_graph(graph, data) -> None:  # type: ignore[no-untyped-def]
+    kg, base, shapes = graph
+    kinds = [new_configuration(), edit_parameter(base), remove_triple(base), new_condition_value(), new_measurement()]
+    changes = data.draw(st.lists(st.one_of(*kinds), min_size=1, max_size=2))
+    change = ChangeSet()
+    for c in changes:
+        change = change.then(c)
+    change = ChangeSet(added=change.added - set(base), removed=change.removed & set(base))
+    incremental = kg.check(change)
+    candidate = base - change.as_graph("removed") + change.as_graph("added")
+    whole = validate_graph(candidate, shapes)
+    assert incremental.conforms == whole.conforms, (incremental.text, whole.text)
+    seen = {(r.focus_node, r.source_shape, r.message) for r in whole.violations}
+    assert {(r.focus_node, r.source_shape, r.message) for r in incremental.violations} <= seen
+
+
+def test_touching_a_shape_validates_the_whole_graph(graph) -> None:  # type: ignore[no-untyped-def]
+    """A new shape applies to existing data: the write is checked against all of it."""
+    kg, _, _ = graph
+    shape = parse_rdf(
+        """@prefix nfex: <https://w3id.org/nfex#> . @prefix sh: <http://www.w3.org/ns/shacl#> .
+        nfex:NoBigORB a sh:NodeShape ; sh:targetClass nfex:Configuration ;
+            sh:property [ sh:path ( nfex:hasSetting nfex:value ) ; sh:maxInclusive 1000 ] ."""
+    )
+    from nfex_core.kg import graph_triples
+
+    report = kg.check(ChangeSet.adding(graph_triples(shape)))
+    assert not report.conforms
+    assert {r.focus_node for r in report.violations} == {str(NFEX.base_orb)}
+
+
+def test_unchanged_graph_needs_no_validation(graph) -> None:  # type: ignore[no-untyped-def]
+    kg, base, _ = graph
+    assert kg.check(ChangeSet.adding([next(iter(base))])).conforms
+    assert URIRef(NFEX.base_orb) in set(base.subjects())
