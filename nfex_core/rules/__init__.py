@@ -1,0 +1,1 @@
+"""Symbolic reasoning: SPARQL pruning rules, the DSL, and the compiled rule engine."""
