@@ -124,6 +124,15 @@ class ValidationFailed(NfexError):
         )
 
 
+class NoCandidate(NfexError):
+    """The rules in force prune every extractor for this context; the pruned list says why."""
+
+    status = 422
+    type = "no-candidate"
+    title = "No candidate extractor"
+    exit_code = 1
+
+
 class NotFound(NfexError):
     status = 404
     type = "not-found"

@@ -97,6 +97,7 @@ class KnowledgeGraph:
         self._write_lock = threading.Lock()
         self._cache: dict[str, tuple[int, Any]] = {}
         self._cache_lock = threading.Lock()
+        self._listeners: list[Callable[[int], None]] = []
         self._ensure_head()
 
     # ------------------------------------------------------------------ opening
@@ -165,6 +166,10 @@ class KnowledgeGraph:
     def triple_count(self) -> int:
         res = self.backend.select("SELECT (COUNT(*) AS ?n) WHERE { ?s ?p ?o }")
         return int(res.rows[0]["n"].toPython())  # type: ignore[union-attr]
+
+    def on_commit(self, listener: Callable[[int], None]) -> None:
+        """Call ``listener(new_version)`` after every commit made through this object."""
+        self._listeners.append(listener)
 
     def cached(self, key: str, build: Callable[[], T]) -> T:
         """A value derived from the graph, rebuilt when the version changes (vocabulary, rule tables…)."""
@@ -258,6 +263,8 @@ class KnowledgeGraph:
                 if not report.conforms:
                     raise ValidationFailed(report.violations, report.text, current_version=head)
                 if self._try_commit(effective, head, author, message):
+                    for listener in self._listeners:
+                        listener(head + 1)
                     return CommitResult(
                         version=head + 1, changed=True, added=len(effective.added), removed=len(effective.removed), report=report
                     )

@@ -1,0 +1,101 @@
+"""What the advisor answers: the extractor α*, its parameters Θ′, and why.
+
+Plain dataclasses; ``as_dict`` gives the JSON the CLI prints and the service returns.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..fitness import Adjustment
+from ..kg.vocab import Value
+from ..rules.engine import Citation, Factor
+
+
+@dataclass(frozen=True)
+class ContextEntry:
+    dimension: str
+    value: str | None
+    source: str  # "given" | "estimated" | "unknown"
+    confidence: float | None = None
+    evidence: str | None = None  # what an estimate was based on
+
+    def as_dict(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if v is not None or k == "value"}
+
+
+@dataclass(frozen=True)
+class CandidateScore:
+    extractor: str
+    params: dict[str, Value]
+    score: float | None
+    bonus: float = 0.0
+    metrics: dict[str, float] = field(default_factory=dict)
+    adjustments: tuple[Adjustment, ...] = ()
+    keypoints: int | None = None
+    extraction_ms: float | None = None
+    evidence: dict[str, Any] = field(default_factory=dict)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "extractor": self.extractor,
+            "score": self.score,
+            "bonus": self.bonus,
+            "metrics": self.metrics,
+            "params": self.params,
+            "adjustments": [
+                {
+                    "parameter": a.parameter,
+                    "from": a.before,
+                    "to": a.after,
+                    "factor": round(a.factor, 6),
+                    "clamped": a.clamped,
+                    "because": [c.as_dict() for c in a.citations],
+                }
+                for a in self.adjustments
+            ],
+            "keypoints": self.keypoints,
+            "extraction_ms": self.extraction_ms,
+            "evidence": self.evidence,
+        }
+
+
+@dataclass(frozen=True)
+class PrunedCandidate:
+    extractor: str
+    because: tuple[Citation, ...]
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"extractor": self.extractor, "because": [c.as_dict() for c in self.because]}
+
+
+@dataclass(frozen=True)
+class Selection:
+    extractor: str
+    params: dict[str, Value]
+    mode: str  # "metrics" (F_metrics on the frame) | "prior" (no frame: rules and measurements)
+    candidates: tuple[CandidateScore, ...]
+    pruned: tuple[PrunedCandidate, ...]
+    context: tuple[ContextEntry, ...]
+    weights: dict[str, Factor]
+    versions: dict[str, Any]
+    timings_ms: dict[str, float]
+    constructor: str = ""
+    norm: str = ""
+    state: Any = field(default=None, compare=False, repr=False)  # for the next frame of a stream
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "extractor": self.extractor,
+            "params": self.params,
+            "opencv": {"constructor": self.constructor, "norm": self.norm},
+            "mode": self.mode,
+            "candidates": [c.as_dict() for c in self.candidates],
+            "pruned": [p.as_dict() for p in self.pruned],
+            "context": [c.as_dict() for c in self.context],
+            "weights": {
+                m: {"value": f.value, "because": [c.as_dict() for c in f.citations]} for m, f in self.weights.items()
+            },
+            "versions": self.versions,
+            "timings_ms": {k: round(v, 3) for k, v in self.timings_ms.items()},
+        }

@@ -1,0 +1,206 @@
+"""The compiled rule engine: per graph version, one lookup table from context to decision.
+
+The condition space is finite — each dimension takes one of its values or is unknown — so the engine
+evaluates every SPARQL pruning rule once for all contexts (one query per rule, see pruning.py) and
+every DSL statement for all contexts, and stores a ``Decision`` per context: the candidates, the pruned
+extractors with the rules that pruned them, the parameter factors f_kj, the metric weights h_x, the
+preference bonuses, the ``require`` constraints in force, and the measured evidence per extractor. A
+request then pays one dictionary lookup. ``compile_table`` runs again when the graph version changes.
+
+Composition (paper §IV-A): several ``adjust`` statements on one parameter multiply
+(w_k = Π_j f_kj(e_j)); several ``weight`` statements on one metric multiply (h_x(E), default 1);
+``prefer`` bonuses add.
+"""
+from __future__ import annotations
+
+import itertools
+import logging
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from rdflib.term import URIRef
+
+from . import pruning
+from .statements import Statement, load_statements
+
+if TYPE_CHECKING:
+    from ..kg.store import KnowledgeGraph
+
+log = logging.getLogger("nfex.rules")
+ContextKey = tuple[str | None, ...]
+
+
+@dataclass(frozen=True)
+class Citation:
+    """A rule that shaped a decision, as a selection reports it."""
+
+    rule: str
+    label: str
+    reason: str
+    kind: str  # sparql | prune | adjust | weight | prefer | require | budget | shape
+    source: str | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if v is not None}
+
+
+@dataclass(frozen=True)
+class Factor:
+    value: float
+    citations: tuple[Citation, ...] = ()
+
+
+@dataclass(frozen=True)
+class Evidence:
+    """What the graph has measured for an extractor under the context's known conditions."""
+
+    mean_ate: float | None
+    windows: int
+    extraction_ms: float | None = None
+
+
+@dataclass(frozen=True)
+class Decision:
+    context: Mapping[str, str | None]
+    candidates: tuple[str, ...]
+    pruned: Mapping[str, tuple[Citation, ...]]
+    factors: Mapping[str, Mapping[str, Factor]]
+    weights: Mapping[str, Factor]
+    bonuses: Mapping[str, Factor]
+    requires: tuple[Statement, ...] = ()
+    evidence: Mapping[str, Evidence] = field(default_factory=dict)
+
+
+def _citation(s: Statement) -> Citation:
+    return Citation(str(s.iri), s.label, s.reason, s.kind, s.source)
+
+
+@dataclass
+class RuleTable:
+    version: int
+    dimensions: tuple[str, ...]
+    decisions: dict[ContextKey, Decision]
+    rules: list[pruning.SparqlRule]
+    statements: list[Statement]
+    errors: list[str]
+    compile_ms: float
+
+    def key(self, context: Mapping[str, str | None]) -> ContextKey:
+        return tuple(context.get(d) for d in self.dimensions)
+
+    def decide(self, context: Mapping[str, str | None]) -> Decision:
+        """The decision for a context (values must be checked against the vocabulary beforehand)."""
+        return self.decisions[self.key(context)]
+
+
+def _evidence(kg: KnowledgeGraph) -> dict[tuple[str, str, str], tuple[float | None, int, float | None]]:
+    """(extractor, dimension, value) → (mean ATE, windows, mean extraction ms) over all measurements."""
+    rows = kg.select(
+        """SELECT ?xname ?dim ?val (AVG(?ate) AS ?mean) (COUNT(?m) AS ?n) (AVG(?ms) AS ?cost) WHERE {
+            ?m a nfex:Measurement ; sosa:usedProcedure/nfex:ofExtractor/nfex:token ?xname ;
+               nfex:underCondition ?c .
+            ?c nfex:token ?val ; nfex:inDimension/nfex:token ?dim .
+            OPTIONAL { ?m nfex:ateRmse ?ate } OPTIONAL { ?m nfex:extractionMs ?ms }
+        } GROUP BY ?xname ?dim ?val"""
+    ).rows
+    out: dict[tuple[str, str, str], tuple[float | None, int, float | None]] = {}
+    for r in rows:
+        mean = float(r["mean"].toPython()) if "mean" in r else None  # type: ignore[union-attr]
+        cost = float(r["cost"].toPython()) if "cost" in r else None  # type: ignore[union-attr]
+        out[(str(r["xname"]), str(r["dim"]), str(r["val"]))] = (mean, int(r["n"].toPython()), cost)  # type: ignore[union-attr]
+    return out
+
+
+def _combine(items: list[tuple[float | None, int, float | None]]) -> Evidence:
+    n = sum(w for _, w, _ in items)
+    ates = [(m, w) for m, w, _ in items if m is not None]
+    costs = [(c, w) for _, w, c in items if c is not None]
+    mean = sum(m * w for m, w in ates) / sum(w for _, w in ates) if ates else None
+    cost = sum(c * w for c, w in costs) / sum(w for _, w in costs) if costs else None
+    return Evidence(mean, n, cost)
+
+
+def compile_table(kg: KnowledgeGraph) -> RuleTable:
+    """Evaluate every rule and statement for every context of the graph's condition space."""
+    t0 = time.perf_counter()
+    version = kg.version
+    vocab = kg.vocabulary()
+    dims = tuple(vocab.dimensions)
+    keys: list[ContextKey] = list(itertools.product(*[[*vocab.dimensions[d].values, None] for d in dims]))
+    iris = [[vocab.dimensions[d].values[v].iri if v is not None else None for d, v in zip(dims, key, strict=True)] for key in keys]
+
+    errors: list[str] = []
+    rules = pruning.load_rules(kg)
+    pruned_by_rules: dict[int, list[tuple[str, Citation]]] = {}
+    for rule in rules:
+        try:
+            hits = pruning.evaluate(kg, rule, dims, iris)
+        except Exception as e:  # a broken rule must not take selection down; it is reported
+            errors.append(f"{rule.iri}: {e}")
+            log.warning("pruning rule %s failed: %s", rule.iri, e)
+            continue
+        for i, found in hits.items():
+            for x, reason in found:
+                spec = vocab.by_iri.get(URIRef(x))
+                if spec is not None:
+                    pruned_by_rules.setdefault(i, []).append((spec.name, Citation(str(rule.iri), rule.label, reason, "sparql", rule.source)))  # type: ignore[attr-defined]
+
+    statements = load_statements(kg, vocab)
+    evidence = _evidence(kg)
+    decisions: dict[ContextKey, Decision] = {}
+    for i, key in enumerate(keys):
+        context = dict(zip(dims, key, strict=True))
+        pruned: dict[str, list[Citation]] = {}
+        for name, cite in pruned_by_rules.get(i, []):
+            pruned.setdefault(name, []).append(cite)
+        factors: dict[str, dict[str, Factor]] = {}
+        weights: dict[str, Factor] = {m: Factor(1.0) for m in vocab.metrics}
+        bonuses: dict[str, Factor] = {}
+        requires: list[Statement] = []
+        for s in statements:
+            if not s.applies(context):
+                continue
+            cite = _citation(s)
+            if s.kind == "prune" and s.extractor:
+                pruned.setdefault(s.extractor, []).append(cite)
+            elif s.kind == "adjust" and s.extractor and s.parameter and s.value is not None:
+                old = factors.setdefault(s.extractor, {}).get(s.parameter, Factor(1.0))
+                factors[s.extractor][s.parameter] = Factor(old.value * float(s.value), old.citations + (cite,))
+            elif s.kind == "weight" and s.metric and s.value is not None:
+                old = weights[s.metric]
+                weights[s.metric] = Factor(old.value * float(s.value), old.citations + (cite,))
+            elif s.kind == "prefer" and s.extractor and s.value is not None:
+                old = bonuses.get(s.extractor, Factor(0.0))
+                bonuses[s.extractor] = Factor(old.value + float(s.value), old.citations + (cite,))
+            elif s.kind == "require":
+                requires.append(s)
+        known = [(d, v) for d, v in context.items() if v is not None]
+        ev = {
+            x: _combine([evidence[(x, d, v)] for d, v in known if (x, d, v) in evidence])
+            for x in vocab.extractors
+        }
+        decisions[key] = Decision(
+            context=context,
+            candidates=tuple(x for x in vocab.extractors if x not in pruned),
+            pruned={x: tuple(c) for x, c in pruned.items()},
+            factors=factors,
+            weights=weights,
+            bonuses=bonuses,
+            requires=tuple(requires),
+            evidence={x: e for x, e in ev.items() if e.windows},
+        )
+    ms = (time.perf_counter() - t0) * 1000
+    log.info("compiled %d contexts, %d rules, %d statements at graph version %d in %.0f ms", len(keys), len(rules), len(statements), version, ms)
+    return RuleTable(version, dims, decisions, rules, statements, errors, ms)
+
+
+class RuleEngine:
+    """The compiled table for the graph's current version, rebuilt when a commit moves the version."""
+
+    def __init__(self, kg: KnowledgeGraph) -> None:
+        self.kg = kg
+
+    def table(self) -> RuleTable:
+        return self.kg.cached("rule-table", lambda: compile_table(self.kg))

@@ -1,0 +1,154 @@
+"""SPARQL pruning rules (``rules/pruning/*.rq``): which extractors a context excludes, and why.
+
+A rule is a SPARQL SELECT returning ``?extractor`` and a human-readable ``?reason``. It may read the
+context through one variable per condition dimension, named by the dimension's token (``?agent``,
+``?light``, …) and bound to condition-value IRIs — unbound where the context does not know the value,
+so a rule that needs a dimension should test it (``FILTER (?light = nfex:light_dark)`` fails when
+``?light`` is unbound, which is the conservative outcome).
+
+Rules are graph data: seeding stores each file as a ``nfex:SparqlRule`` with its label, comment,
+source file and query text, so a selection cites the rule's IRI and new rules arrive by transaction.
+The engine evaluates a rule once per graph version for *every* context at once: it binds the context
+variables from a ``VALUES`` table of all contexts and projects a context index ``?ctx``.
+"""
+from __future__ import annotations
+
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import pyoxigraph as ox
+import rdflib
+from rdflib.namespace import RDF, RDFS
+from rdflib.term import Literal, URIRef
+
+from ..config import Settings
+from ..errors import BadInput, ParseError
+from ..kg.changes import read_rdf_file
+from ..kg.seed import seed_source
+from ..kg.terms import n3
+from ..namespaces import NFEX
+
+if TYPE_CHECKING:
+    from ..kg.store import KnowledgeGraph
+
+_HEADER = re.compile(r"^#\s*(label|comment):\s*(.*)$", re.IGNORECASE)
+_SELECT = re.compile(r"\bSELECT\s+(DISTINCT\s+|REDUCED\s+)?", re.IGNORECASE)
+_WHERE = re.compile(r"\bWHERE\s*\{", re.IGNORECASE)
+
+
+@dataclass(frozen=True)
+class SparqlRule:
+    iri: URIRef
+    label: str
+    query: str
+    comment: str = ""
+    source: str | None = None
+
+
+def parse_rule_file(path: Path, root: Path) -> SparqlRule:
+    """A rule file: ``# label:`` and ``# comment:`` header lines (a comment may continue on ``#   `` lines)."""
+    text = path.read_text()
+    label, comment, in_comment = "", [], False
+    for line in text.splitlines():
+        m = _HEADER.match(line)
+        if m:
+            in_comment = m.group(1).lower() == "comment"
+            if in_comment:
+                comment.append(m.group(2).strip())
+            else:
+                label = m.group(2).strip()
+        elif in_comment and line.startswith("#   "):
+            comment.append(line[1:].strip())
+        else:
+            in_comment = False
+    if not label:
+        raise ParseError(f"{path}: a pruning rule needs a '# label: …' header line")
+    return SparqlRule(NFEX[f"rule_{path.stem.replace('-', '_')}"], label, text, " ".join(comment), str(path.relative_to(root)))
+
+
+def rule_triples(rule: SparqlRule) -> rdflib.Graph:
+    g = rdflib.Graph()
+    g.add((rule.iri, RDF.type, NFEX.SparqlRule))
+    g.add((rule.iri, RDFS.label, Literal(rule.label)))
+    if rule.comment:
+        g.add((rule.iri, RDFS.comment, Literal(rule.comment)))
+    if rule.source:
+        g.add((rule.iri, NFEX.sourceFile, Literal(rule.source)))
+    g.add((rule.iri, NFEX.query, Literal(rule.query)))
+    g.add((rule.iri, NFEX.enabled, Literal(True)))
+    return g
+
+
+@seed_source("pruning-rules")
+def seed_rules(settings: Settings) -> rdflib.Graph:
+    """rules/pruning/*.rq as nfex:SparqlRule individuals, and the thresholds they read."""
+    folder = settings.rules_dir / "pruning"
+    g = rdflib.Graph()
+    for path in sorted(folder.glob("*.rq")):
+        g += rule_triples(parse_rule_file(path, settings.home))
+    for path in sorted(folder.glob("*.ttl")):
+        g += read_rdf_file(path)
+    return g
+
+
+def load_rules(kg: KnowledgeGraph) -> list[SparqlRule]:
+    rows = kg.select(
+        """SELECT ?r ?label ?query ?comment ?source WHERE {
+            ?r a nfex:SparqlRule ; rdfs:label ?label ; nfex:query ?query .
+            OPTIONAL { ?r rdfs:comment ?comment } OPTIONAL { ?r nfex:sourceFile ?source }
+            FILTER NOT EXISTS { ?r nfex:enabled false }
+        } ORDER BY ?r"""
+    ).rows
+    return [
+        SparqlRule(r["r"], str(r["label"]), str(r["query"]), str(r.get("comment", "")), str(r["source"]) if "source" in r else None)  # type: ignore[arg-type]
+        for r in rows
+    ]
+
+
+def contextualise(query: str, dimensions: Sequence[str], contexts: Sequence[Sequence[URIRef | None]]) -> str:
+    """The rule evaluated for many contexts at once: ``VALUES`` binds them, ``?ctx`` says which row.
+
+    The VALUES block opens the outermost WHERE group so it joins with the whole pattern; the rule's
+    projection gains ``?ctx``.
+    """
+    select = _SELECT.search(query)
+    where = _WHERE.search(query, select.end() if select else 0)
+    if select is None or where is None:
+        raise BadInput("a pruning rule must be a SELECT … WHERE { … } query")
+    variables = " ".join(["?ctx"] + [f"?{d}" for d in dimensions])
+    rows = " ".join(
+        "(" + " ".join([str(i)] + [n3(v) if v is not None else "UNDEF" for v in ctx]) + ")" for i, ctx in enumerate(contexts)
+    )
+    values = f"\n  VALUES ({variables}) {{ {rows} }}\n"
+    out = query[: where.end()] + values + query[where.end() :]
+    return out[: select.end()] + "?ctx " + out[select.end() :]
+
+
+def check_rule(query: str, dimensions: Sequence[str]) -> None:
+    """Refuse a rule that does not parse or does not return ?extractor and ?reason (before it is stored)."""
+    try:
+        probe = ox.Store().query(contextualise(query, dimensions, [[None] * len(dimensions)]))
+    except SyntaxError as e:
+        raise ParseError(f"the rule is not valid SPARQL: {e}") from e
+    if not isinstance(probe, ox.QuerySolutions):
+        raise BadInput("a pruning rule must be a SELECT query")
+    names = {v.value for v in probe.variables}
+    missing = {"extractor", "reason"} - names
+    if missing:
+        raise BadInput(f"a pruning rule must select ?extractor and ?reason; missing: {', '.join(sorted('?' + m for m in missing))}")
+
+
+def evaluate(
+    kg: KnowledgeGraph, rule: SparqlRule, dimensions: Sequence[str], contexts: Sequence[Sequence[URIRef | None]]
+) -> dict[int, list[tuple[URIRef, str]]]:
+    """For each context index, the extractors ``rule`` prunes with their reasons."""
+    rows = kg.backend.select(contextualise(rule.query, dimensions, contexts)).rows
+    out: dict[int, list[tuple[URIRef, str]]] = {}
+    for r in rows:
+        if "extractor" not in r or not isinstance(r["extractor"], URIRef):
+            continue
+        out.setdefault(int(r["ctx"].toPython()), []).append((r["extractor"], str(r.get("reason", rule.label))))  # type: ignore[union-attr]
+    return out

@@ -1,0 +1,128 @@
+"""DSL statements as the rule engine reads them from the graph.
+
+``nfex_core/rules/dsl`` compiles programs to triples (docs/dsl.md); this module reads those triples
+back as plain records and decides when a statement applies. A statement applies in a context when
+every condition atom holds; an atom holds when the context's value for its dimension is one of the
+atom's values — negated for ``is not`` — and never when the context does not know that dimension.
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from rdflib.term import Literal, URIRef
+
+from ..kg.vocab import Vocabulary
+
+if TYPE_CHECKING:
+    from ..kg.store import KnowledgeGraph
+
+KINDS = {
+    "PruneStatement": "prune",
+    "AdjustStatement": "adjust",
+    "WeightStatement": "weight",
+    "PreferStatement": "prefer",
+    "RequireStatement": "require",
+}
+
+
+@dataclass(frozen=True)
+class Atom:
+    dimension: str
+    values: frozenset[str]
+    negated: bool = False
+
+    def holds(self, context: Mapping[str, str | None]) -> bool:
+        value = context.get(self.dimension)
+        if value is None:
+            return False
+        return (value in self.values) != self.negated
+
+
+@dataclass(frozen=True)
+class Statement:
+    iri: URIRef
+    kind: str  # prune | adjust | weight | prefer | require
+    label: str
+    reason: str
+    program: str
+    order: int
+    atoms: tuple[Atom, ...]
+    source: str | None = None  # "rules/programs/default.nfex:12"
+    extractor: str | None = None  # prune, prefer; adjust/require: the parameter's extractor
+    parameter: str | None = None  # adjust, require: the OpenCV argument name
+    metric: str | None = None  # weight
+    value: float | int | bool | None = None  # factor, weight, bonus, bound
+    comparator: str | None = None  # require
+    shape: URIRef | None = None  # require: the SHACL shape compiled from it
+
+    def applies(self, context: Mapping[str, str | None]) -> bool:
+        return all(a.holds(context) for a in self.atoms)
+
+
+def _py(term: object) -> object:
+    return term.toPython() if isinstance(term, Literal) else term
+
+
+def load_statements(kg: KnowledgeGraph, vocab: Vocabulary) -> list[Statement]:
+    """Every enabled statement of every program, in program order."""
+    rows = kg.select(
+        """SELECT ?s ?type ?label ?reason ?program ?order ?file ?line ?x ?p ?m ?factor ?weight ?bonus ?bound ?cmp ?shape WHERE {
+            ?s a ?type ; nfex:inProgram ?prog .
+            FILTER (?type IN (nfex:PruneStatement, nfex:AdjustStatement, nfex:WeightStatement, nfex:PreferStatement, nfex:RequireStatement))
+            FILTER NOT EXISTS { ?s nfex:enabled false }
+            ?prog rdfs:label ?program .
+            OPTIONAL { ?s rdfs:label ?label } OPTIONAL { ?s nfex:reason ?reason } OPTIONAL { ?s nfex:order ?order }
+            OPTIONAL { ?prog nfex:sourceFile ?file } OPTIONAL { ?s nfex:line ?line }
+            OPTIONAL { ?s nfex:prunes|nfex:prefers ?x } OPTIONAL { ?s nfex:parameter ?p } OPTIONAL { ?s nfex:metric ?m }
+            OPTIONAL { ?s nfex:factor ?factor } OPTIONAL { ?s nfex:weight ?weight } OPTIONAL { ?s nfex:bonus ?bonus }
+            OPTIONAL { ?s nfex:bound ?bound } OPTIONAL { ?s nfex:comparator ?cmp } OPTIONAL { ?s nfex:shape ?shape }
+        }"""
+    ).rows
+    atoms: dict[URIRef, dict[URIRef, tuple[str, set[str], bool]]] = {}
+    for r in kg.select(
+        """SELECT ?s ?a ?dim ?v ?neg WHERE {
+            ?s nfex:hasCondition ?a . ?a nfex:dimension/nfex:token ?dim ; nfex:oneOf/nfex:token ?v .
+            OPTIONAL { ?a nfex:negated ?neg }
+        }"""
+    ).rows:
+        entry = atoms.setdefault(r["s"], {}).setdefault(r["a"], (str(r["dim"]), set(), bool(_py(r.get("neg", Literal(False))))))  # type: ignore[arg-type]
+        entry[1].add(str(r["v"]))
+
+    out: list[Statement] = []
+    for r in rows:
+        kind = KINDS[str(r["type"]).rsplit("#", 1)[-1]]
+        extractor = parameter = metric = None
+        if "x" in r and r["x"] in vocab.by_iri:
+            extractor = vocab.by_iri[r["x"]].name  # type: ignore[attr-defined]
+        if "p" in r and r["p"] in vocab.by_iri:
+            spec = vocab.by_iri[r["p"]]
+            extractor, parameter = spec.extractor, spec.name  # type: ignore[attr-defined]
+        if "m" in r and r["m"] in vocab.by_iri:
+            metric = vocab.by_iri[r["m"]].name  # type: ignore[attr-defined]
+        value = next((_py(r[k]) for k in ("factor", "weight", "bonus", "bound") if k in r), None)
+        source = None
+        if "file" in r:
+            source = f"{r['file']}:{r['line']}" if "line" in r else str(r["file"])
+        label = str(r.get("label", ""))
+        out.append(
+            Statement(
+                iri=r["s"],  # type: ignore[arg-type]
+                kind=kind,
+                label=label,
+                reason=str(r.get("reason", label)),
+                program=str(r["program"]),
+                order=int(_py(r["order"])) if "order" in r else 0,  # type: ignore[call-overload]
+                atoms=tuple(Atom(d, frozenset(vs), neg) for d, vs, neg in atoms.get(r["s"], {}).values()),  # type: ignore[arg-type]
+                source=source,
+                extractor=extractor,
+                parameter=parameter,
+                metric=metric,
+                value=value,  # type: ignore[arg-type]
+                comparator=str(r["cmp"]) if "cmp" in r else None,
+                shape=r.get("shape"),  # type: ignore[arg-type]
+            )
+        )
+    out.sort(key=lambda s: (s.program, s.order, str(s.iri)))
+    return out

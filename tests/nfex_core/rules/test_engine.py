@@ -1,0 +1,113 @@
+"""The compiled rule engine: SPARQL rules evaluated for every context, cited, and recompiled on commit."""
+from __future__ import annotations
+
+import pytest
+from rdflib import Literal
+
+from nfex_core.errors import BadInput, ParseError
+from nfex_core.kg import KnowledgeGraph, parse_rdf
+from nfex_core.rules.engine import RuleEngine, compile_table
+from nfex_core.rules.pruning import check_rule, contextualise
+
+N = "https://w3id.org/nfex#"
+P = """@prefix nfex: <https://w3id.org/nfex#> . @prefix sosa: <http://www.w3.org/ns/sosa/> .
+@prefix xsd: <http://www.w3.org/2001/XMLSchema#> . @prefix rdfs: <http://www.w3.org/2000/01/rdf-schema#> .
+"""
+DIMS = ("agent", "motion", "scene", "light", "reflectance", "texture")
+
+
+def measurements(extractor: str, lost: int, frames: int = 20, n: int = 3, condition: str = "light_dark", ate: float = 0.5) -> str:
+    out = [P, f"nfex:seq_t a nfex:Sequence .\nnfex:cfg_{extractor} a nfex:Configuration ; nfex:ofExtractor nfex:{extractor} ."]
+    for i in range(n):
+        out.append(
+            f"nfex:m_{extractor}_{condition}_{i} a nfex:Measurement ; sosa:usedProcedure nfex:cfg_{extractor} ; "
+            f'nfex:sequence nfex:seq_t ; nfex:trackingLost {lost} ; nfex:frameCount {frames} ; nfex:ateRmse "{ate}"^^xsd:double ; '
+            f"nfex:underCondition nfex:{condition} ."
+        )
+    return "\n".join(out)
+
+
+def test_expert_rule_prunes_sift_on_fast_cars_and_is_cited(kg: KnowledgeGraph) -> None:
+    table = compile_table(kg)
+    assert not table.errors
+    d = table.decide({"agent": "car", "motion": "fast"})
+    assert "SIFT" not in d.candidates and {"ORB", "AKAZE", "BRISK"} <= set(d.candidates)
+    [cite] = d.pruned["SIFT"]
+    assert cite.rule == N + "rule_expert_fast_car_gradient_histograms" and cite.kind == "sparql"
+    assert cite.source == "rules/pruning/expert-fast-car-gradient-histograms.rq"
+    # unknown motion: the rule cannot fire (conservative)
+    assert "SIFT" in table.decide({"agent": "car"}).candidates
+
+
+def test_every_context_is_compiled(kg: KnowledgeGraph) -> None:
+    table = compile_table(kg)
+    assert len(table.decisions) == 4 * 3 * 3 * 3 * 3 * 4
+    assert table.decide({}).candidates == ("AKAZE", "BRISK", "ORB", "SIFT")
+
+
+def test_measured_tracking_loss_prunes_after_a_commit_and_rollback_restores(kg: KnowledgeGraph) -> None:
+    engine = RuleEngine(kg)
+    ctx = {"light": "dark", "agent": "drone"}
+    assert "BRISK" in engine.table().decide(ctx).candidates
+    kg.add(parse_rdf(measurements("BRISK", lost=10)), author="t")  # 50% of frames lost, limit 25%
+    d = engine.table().decide(ctx)
+    assert "BRISK" not in d.candidates
+    [cite] = d.pruned["BRISK"]
+    assert cite.rule == N + "rule_measured_tracking_loss"
+    assert "50% of frames over 3 measured windows with light = dark" in cite.reason
+    assert "BRISK" in engine.table().decide({"light": "bright"}).candidates  # other condition: no evidence
+    kg.rollback(1, author="t")
+    assert "BRISK" in engine.table().decide(ctx).candidates
+
+
+def test_thresholds_are_data(kg: KnowledgeGraph) -> None:
+    kg.add(parse_rdf(measurements("BRISK", lost=4)), author="t")  # 20% < 25%
+    assert "BRISK" in compile_table(kg).decide({"light": "dark"}).candidates
+    kg.update(
+        'PREFIX nfex: <https://w3id.org/nfex#> DELETE { nfex:maxTrackingLossRate nfex:value ?v } '
+        'INSERT { nfex:maxTrackingLossRate nfex:value "0.1"^^<http://www.w3.org/2001/XMLSchema#double> } '
+        "WHERE { nfex:maxTrackingLossRate nfex:value ?v }",
+        author="t",
+    )
+    assert "BRISK" not in compile_table(kg).decide({"light": "dark"}).candidates
+
+
+def test_relative_ate_rule(kg: KnowledgeGraph) -> None:
+    g = measurements("ORB", lost=0, ate=0.1, condition="texture_low") + "\n" + measurements("AKAZE", lost=0, ate=0.9, condition="texture_low").replace(P, "")
+    kg.add(parse_rdf(g), author="t")
+    d = compile_table(kg).decide({"texture": "low"})
+    assert "AKAZE" in d.pruned and "ORB" in d.candidates
+    assert "is over 4x the best extractor's 0.1 m" in d.pruned["AKAZE"][0].reason
+    assert d.evidence["ORB"].mean_ate == pytest.approx(0.1) and d.evidence["ORB"].windows == 3
+
+
+def test_a_rule_added_by_transaction_is_applied_and_cited(kg: KnowledgeGraph) -> None:
+    rule = (
+        "SELECT ?extractor ?reason WHERE { FILTER (?reflectance = nfex:reflectance_reflective) "
+        '?extractor nfex:token "BRISK" . BIND ("test: no BRISK on mirrors" AS ?reason) }'
+    )
+    g = parse_rdf(P + f'nfex:rule_test a nfex:SparqlRule ; rdfs:label "No BRISK on mirrors" ; nfex:query """PREFIX nfex: <{N}>\n{rule}""" .')
+    kg.add(g, author="t")
+    d = compile_table(kg).decide({"reflectance": "reflective"})
+    assert d.pruned["BRISK"][0].rule == N + "rule_test"
+
+
+def test_a_broken_rule_is_reported_not_fatal(kg: KnowledgeGraph) -> None:
+    kg.add(parse_rdf(P + 'nfex:rule_bad a nfex:SparqlRule ; rdfs:label "bad" ; nfex:query "SELECT ?extractor WHERE { nonsense" .'), author="t")
+    table = compile_table(kg)
+    assert any("rule_bad" in e for e in table.errors)
+    assert table.decide({}).candidates
+
+
+def test_contextualise_binds_all_contexts_and_projects_ctx() -> None:
+    q = "PREFIX nfex: <https://w3id.org/nfex#>\nSELECT DISTINCT ?extractor ?reason WHERE { ?extractor ?p ?o }"
+    out = contextualise(q, ["light"], [[None], [Literal("x")]])  # type: ignore[list-item]
+    assert "SELECT DISTINCT ?ctx ?extractor" in out and "VALUES (?ctx ?light) { (0 UNDEF) (1 \"x\") }" in out
+
+
+def test_check_rule() -> None:
+    check_rule("SELECT ?extractor ?reason WHERE { ?extractor a ?t }", DIMS)
+    with pytest.raises(ParseError):
+        check_rule("SELECT ?extractor ?reason WHERE { ?extractor a }", DIMS)
+    with pytest.raises(BadInput, match=r"\?reason"):
+        check_rule("SELECT ?extractor WHERE { ?extractor a ?t }", DIMS)
