@@ -37,9 +37,18 @@ class Snapshot:
     version: int
     vocab: Vocabulary
     table: RuleTable
-    registry: Any  # vision.registry.ExtractorRegistry, built lazily (imports cv2)
     programs: dict[str, int]
     taken_at: float = field(default_factory=time.monotonic)
+    _registry: Any = None
+
+    @property
+    def registry(self) -> Any:
+        """The extractor registry for this vocabulary (built on first use: it imports cv2)."""
+        if self._registry is None:
+            from ..vision.registry import ExtractorRegistry
+
+            self._registry = ExtractorRegistry.from_vocabulary(self.vocab)
+        return self._registry
 
 
 @dataclass(frozen=True)
@@ -104,14 +113,12 @@ class Advisor:
             return snap
 
     def _build(self) -> Snapshot:
-        from ..vision.registry import ExtractorRegistry
-
         vocab = self.kg.vocabulary()
         table = self.engine.table()
         programs: dict[str, int] = {}
         for s in table.statements:
             programs[s.program] = programs.get(s.program, 0) + 1
-        return Snapshot(table.version, vocab, table, ExtractorRegistry.from_vocabulary(vocab), programs)
+        return Snapshot(table.version, vocab, table, programs)
 
     # ------------------------------------------------------------------ the flow
     def select(
