@@ -1,0 +1,133 @@
+"""The extractor registry, built from the knowledge graph alone (DESIGN.md, "Knowledge graph").
+
+An extractor individual names its OpenCV constructor (``nfex:opencvConstructor``, a dotted path
+under ``cv2`` such as ``ORB_create`` or ``xfeatures2d.AKAZE_create``), its matching norm and its
+Parameters, each with the OpenCV keyword name, datatype, default and range. The registry turns that
+into a callable extractor: nothing here is specific to ORB, SIFT, AKAZE or BRISK, so adding an
+extractor is a Turtle file, not code.
+
+    >>> reg = ExtractorRegistry.from_vocabulary(kg.vocabulary())       # doctest: +SKIP
+    >>> feats = reg.extract("ORB", image, {"nfeatures": 1000})          # doctest: +SKIP
+
+Parameter sets are validated against the graph (an out-of-range or unknown parameter raises
+ParameterError / UnknownName naming it and its allowed range). OpenCV detector objects are cached per
+thread and per parameter set: they are cheap to build but not safe to share between threads.
+"""
+from __future__ import annotations
+
+import threading
+import time
+from collections import OrderedDict
+from collections.abc import Callable, Mapping
+from typing import Any
+
+import cv2
+import numpy as np
+
+from ..errors import BadInput, UnknownName
+from ..kg.vocab import ExtractorSpec, Value, Vocabulary
+from .features import Features
+
+CACHE_SIZE = 64
+
+
+def resolve_constructor(path: str) -> Callable[..., Any]:
+    """``cv2.<path>`` for a dotted path; a clear error when this OpenCV build lacks it."""
+    obj: Any = cv2
+    for part in path.split("."):
+        if not hasattr(obj, part):
+            raise BadInput(
+                f"OpenCV {cv2.__version__} has no constructor cv2.{path} "
+                "(AKAZE and BRISK need the contrib build: opencv-contrib-python-headless)"
+            )
+        obj = getattr(obj, part)
+    if not callable(obj):
+        raise BadInput(f"cv2.{path} is not callable")
+    return obj  # type: ignore[no-any-return]
+
+
+def as_grey_u8(image: np.ndarray) -> np.ndarray:
+    """A uint8 single-channel view of ``image`` (BGR/BGRA converted, other dtypes clipped)."""
+    if image.ndim == 3:
+        code = cv2.COLOR_BGRA2GRAY if image.shape[2] == 4 else cv2.COLOR_BGR2GRAY
+        image = cv2.cvtColor(image, code)
+    elif image.ndim != 2:
+        raise BadInput(f"an image must be H×W or H×W×C, got shape {image.shape}")
+    if image.dtype != np.uint8:
+        image = np.clip(image, 0, 255).astype(np.uint8)
+    return image
+
+
+class ExtractorRegistry:
+    """Extractors by name, as the graph describes them."""
+
+    def __init__(self, specs: Mapping[str, ExtractorSpec]) -> None:
+        self.specs = dict(specs)
+        self._local = threading.local()
+
+    @classmethod
+    def from_vocabulary(cls, vocab: Vocabulary) -> ExtractorRegistry:
+        return cls(vocab.extractors)
+
+    @property
+    def names(self) -> list[str]:
+        return sorted(self.specs)
+
+    def spec(self, name: str) -> ExtractorSpec:
+        try:
+            return self.specs[name]
+        except KeyError:
+            raise UnknownName("extractor", name, self.specs) from None
+
+    def resolve(self, name: str, params: Mapping[str, Any] | None = None) -> dict[str, Value]:
+        """The full parameter set: the graph's defaults overridden by ``params``, each validated."""
+        return self.spec(name).resolve(params)
+
+    def create(self, name: str, params: Mapping[str, Any] | None = None) -> Any:
+        """A (thread-local, cached) OpenCV detector for ``name`` with ``params``."""
+        full = self.resolve(name, params)
+        key = (name, tuple(sorted(full.items())))
+        cache: OrderedDict[tuple[Any, ...], Any] | None = getattr(self._local, "cache", None)
+        if cache is None:
+            cache = self._local.cache = OrderedDict()
+        detector = cache.get(key)
+        if detector is None:
+            detector = resolve_constructor(self.spec(name).constructor)(**full)
+            cache[key] = detector
+            if len(cache) > CACHE_SIZE:
+                cache.popitem(last=False)
+        else:
+            cache.move_to_end(key)
+        return detector
+
+    def norm(self, name: str, params: Mapping[str, Any] | None = None) -> tuple[int, str]:
+        """The cv2.NORM_* constant (and its name) for matching this configuration's descriptors."""
+        norm_name = self.spec(name).norm_for(self.resolve(name, params))
+        return int(getattr(cv2, norm_name)), norm_name
+
+    def extract(
+        self, name: str, image: np.ndarray, params: Mapping[str, Any] | None = None, mask: np.ndarray | None = None
+    ) -> Features:
+        """Detect keypoints and compute descriptors on ``image`` (grey or colour)."""
+        spec = self.spec(name)
+        detector = self.create(name, params)
+        norm, norm_name = self.norm(name, params)
+        grey = as_grey_u8(image)
+        t0 = time.perf_counter()
+        keypoints, descriptors = detector.detectAndCompute(grey, mask)
+        elapsed = (time.perf_counter() - t0) * 1000
+        try:
+            width = int(detector.descriptorSize())
+        except cv2.error:
+            width = 0
+        return Features.from_opencv(
+            name,
+            keypoints,
+            descriptors,
+            width=width,
+            norm=norm,
+            norm_name=norm_name,
+            descriptor_kind=spec.descriptor_kind,
+            image_shape=(int(grey.shape[0]), int(grey.shape[1])),
+            elapsed_ms=elapsed,
+        )
