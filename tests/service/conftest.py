@@ -89,7 +89,8 @@ def oxigraph_url(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
         pytest.skip("the oxigraph server binary is not installed (pip install oxigraph)")
     folder = tmp_path_factory.mktemp("oxigraph")
     port = free_port()
-    proc = subprocess.Popen([exe, "serve", "--location", str(folder / "data"), "--bind", f"127.0.0.1:{port}"],
+    # as docker-compose.yml runs it: the server cancels queries past --timeout-s itself
+    proc = subprocess.Popen([exe, "serve", "--location", str(folder / "data"), "--bind", f"127.0.0.1:{port}", "--timeout-s", "10"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     url = f"http://127.0.0.1:{port}"
     wait_http(url + "/query?query=ASK%7B%7D", proc=proc)
