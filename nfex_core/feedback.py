@@ -133,16 +133,16 @@ def measurement_graph(vocab: Vocabulary, fb: Feedback, *, run_exists: bool = Fal
     g.add((m, SOSA.resultTime, Literal(now.isoformat(), datatype=XSD.dateTime)))
     for dim, value in context.items():
         g.add((m, NFEX.underCondition, vocab.condition_value(dim, value).iri))
-    ints = {"windowStart": fb.window_start, "windowEnd": fb.window_end, "frameCount": frames,
+    ints: dict[str, int | None] = {"windowStart": fb.window_start, "windowEnd": fb.window_end, "frameCount": frames,
             "trackingLost": fb.tracking_lost, "frameWidth": fb.width, "frameHeight": fb.height}
-    doubles = {"ateRmse": fb.ate_rmse, "rpeRmse": fb.rpe_rmse, "meanInliers": fb.mean_inliers, "meanMatches": fb.mean_matches,
+    doubles: dict[str, float | None] = {"ateRmse": fb.ate_rmse, "rpeRmse": fb.rpe_rmse, "meanInliers": fb.mean_inliers, "meanMatches": fb.mean_matches,
                "meanKeypoints": fb.mean_keypoints, "extractionMs": fb.extraction_ms, "matchingMs": fb.matching_ms}
     for name, v in ints.items():
         if v is not None:
             g.add((m, NFEX[name], Literal(int(v), datatype=XSD.integer)))
-    for name, v in doubles.items():
-        if v is not None:
-            g.add((m, NFEX[name], Literal(float(v), datatype=XSD.double)))
+    for name, x in doubles.items():
+        if x is not None:
+            g.add((m, NFEX[name], Literal(float(x), datatype=XSD.double)))
     if fb.tracking_failed is not None:
         g.add((m, NFEX.trackingFailed, Literal(bool(fb.tracking_failed))))
     return g, m

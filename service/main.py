@@ -16,7 +16,19 @@ from nfex_core.kg import KnowledgeGraph
 from . import problems
 from .config import Settings
 from .observability import Metrics, ServiceMiddleware, setup_logging
-from .routes import conditions, extractors, feedback, health, programs, rules, select, sessions, sparql, versions, vocabulary
+from .routes import (
+    conditions,
+    extractors,
+    feedback,
+    health,
+    programs,
+    rules,
+    select,
+    sessions,
+    sparql,
+    versions,
+    vocabulary,
+)
 from .sessions import SessionStore
 from .sparql_exec import QueryRunner
 

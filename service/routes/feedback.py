@@ -1,10 +1,10 @@
 """``POST /v1/feedback``: what a client measured with a selection becomes a Measurement in the graph."""
 from __future__ import annotations
 
+from datetime import UTC, datetime
+
 from fastapi import APIRouter
 from fastapi.responses import JSONResponse
-
-from datetime import UTC, datetime
 
 from nfex_core.feedback import Feedback, measurement_graph, run_iri
 

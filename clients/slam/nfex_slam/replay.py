@@ -127,7 +127,6 @@ def replay(
 ) -> ReplayResult:
     """Run the VO over ``sequence`` through a session; report feedback per window; write TUM; return ATE."""
     import cv2
-
     from nfex_core.trajectory import Trajectory, write_tum
     from nfex_core.vo import run_vo
 
