@@ -31,6 +31,7 @@ def _check_sequence(seq: Sequence, n: int, shape: tuple[int, int]) -> None:
     window = seq[2:7]
     assert len(window) == 5 and np.allclose(window.poses, poses[2:7])
     assert np.array_equal(window[0].image, seq[2].image)
+    assert window[0].index == 2 and window[1:3][0].index == 3
 
 
 def test_kitti_00(data_dir: Path) -> None:
