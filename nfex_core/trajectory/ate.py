@@ -110,6 +110,17 @@ def ate(
     return ErrorStats.of(errors, alignment.scale)
 
 
+def se3_inverse(poses: np.ndarray) -> np.ndarray:
+    """[Rᵀ | −Rᵀ t] of (…, 4, 4) poses: the rigid inverse, as evo takes it (files round their
+    rotations, so Rᵀ and the matrix inverse differ at 1e-7, and evo's figures use Rᵀ)."""
+    out = np.zeros_like(poses)
+    rt = np.swapaxes(poses[..., :3, :3], -1, -2)
+    out[..., :3, :3] = rt
+    out[..., :3, 3] = -np.einsum("...ij,...j->...i", rt, poses[..., :3, 3])
+    out[..., 3, 3] = 1.0
+    return out
+
+
 def pairs_by_index(n: int, delta: int, all_pairs: bool = False) -> list[tuple[int, int]]:
     """(i, i+Δ) for every i (all pairs) or for i = 0, Δ, 2Δ, … (consecutive pairs)."""
     if all_pairs:
@@ -180,7 +191,7 @@ def rpe(
     if not pairs:
         raise BadInput(f"delta = {delta} ({delta_unit}) produced no pose pairs; try a smaller delta")
     i, j = np.array(pairs, dtype=int).T
-    q_rel = np.linalg.inv(r.poses[i]) @ r.poses[j]
-    p_rel = np.linalg.inv(e.poses[i]) @ e.poses[j]
-    err = np.linalg.inv(q_rel) @ p_rel
+    q_rel = se3_inverse(r.poses[i]) @ r.poses[j]
+    p_rel = se3_inverse(e.poses[i]) @ e.poses[j]
+    err = se3_inverse(q_rel) @ p_rel
     return ErrorStats.of(np.linalg.norm(err[:, :3, 3], axis=1), alignment.scale)
