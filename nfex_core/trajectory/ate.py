@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import BadInput
+from .align import Alignment
 from .align import align as align_trajectory
 from .io import Trajectory
 
@@ -96,6 +97,16 @@ def associate(ref: Trajectory, est: Trajectory, t_max_diff: float = 0.01) -> tup
     return (short_sub, long_sub) if est_longer else (long_sub, short_sub)
 
 
+def associate_and_align(
+    ref: Trajectory, est: Trajectory, align: str = "se3", t_max_diff: float = 0.01
+) -> tuple[Trajectory, Trajectory, Alignment]:
+    """The associated reference, the associated estimate aligned onto it, and the alignment: what
+    ``ate`` measures, for plotting trajectories against ground truth."""
+    r, e = associate(ref, est, t_max_diff)
+    e_aligned, alignment = align_trajectory(e, r, align)
+    return r, e_aligned, alignment
+
+
 def ate(
     ref: Trajectory,
     est: Trajectory,
@@ -104,8 +115,7 @@ def ate(
 ) -> ErrorStats:
     """Absolute trajectory error (translation part) after association and ``align`` (se3 | sim3 | none);
     ``evo_ape … -a`` is se3, ``-as`` is sim3."""
-    r, e = associate(ref, est, t_max_diff)
-    e_aligned, alignment = align_trajectory(e, r, align)
+    r, e_aligned, alignment = associate_and_align(ref, est, align, t_max_diff)
     errors = np.linalg.norm(e_aligned.positions - r.positions, axis=1)
     return ErrorStats.of(errors, alignment.scale)
 

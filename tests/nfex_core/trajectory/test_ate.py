@@ -89,3 +89,12 @@ def test_bad_arguments():
         rpe(t, t, delta=1.5, delta_unit="f")
     with pytest.raises(BadInput):
         rpe(t, t, delta=1, delta_unit="deg")
+
+
+def test_associate_and_align_gives_what_ate_measures(kitti00) -> None:  # type: ignore[no-untyped-def]
+    from nfex_core.trajectory import associate_and_align
+
+    r, e, a = associate_and_align(kitti00["gt"], kitti00["ORB"], "sim3")
+    errors = np.linalg.norm(e.positions - r.positions, axis=1)
+    stats = ate(kitti00["gt"], kitti00["ORB"], align="sim3")
+    assert np.allclose(errors, stats.errors) and a.scale == stats.scale != 1.0
