@@ -211,9 +211,22 @@ def parser() -> Lark:
     return Lark(GRAMMAR.read_text(), parser="lalr", propagate_positions=True, maybe_placeholders=False)
 
 
+_READABLE = {
+    "SIGNED_NUMBER": "a number",
+    "BOOL": "true or false",
+    "NAME": "a name",
+    "STRING": 'a "quoted reason"',
+    "COMPARATOR": "a comparator (<=, <, >=, >, =)",
+    "$END": "the end of the program",
+}
+
+
 def _expected(names: set[str]) -> str:
     shown = []
     for name in sorted(names):
+        if name in _READABLE:
+            shown.append(_READABLE[name])
+            continue
         try:
             pattern = parser().get_terminal(name).pattern
         except KeyError:
