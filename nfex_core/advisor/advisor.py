@@ -40,6 +40,8 @@ class Snapshot:
     programs: dict[str, int]
     taken_at: float = field(default_factory=time.monotonic)
     _registry: Any = None
+    # context-only answers depend on the decision alone: computed once per context and snapshot
+    _priors: dict[int, list[CandidateScore]] = field(default_factory=dict)
 
     @property
     def registry(self) -> Any:
@@ -157,7 +159,7 @@ class Advisor:
         timings["total"] = sum(timings.values())
         return Selection(
             extractor=best.extractor,
-            params=best.params,
+            params=dict(best.params),
             mode=mode,
             candidates=tuple(sorted(scored, key=lambda c: -(c.score if c.score is not None else -np.inf))),
             pruned=tuple(PrunedCandidate(x, cs) for x, cs in sorted(decision.pruned.items())),
@@ -200,7 +202,10 @@ class Advisor:
     ) -> tuple[list[CandidateScore], FrameState | None, str]:
         vocab = snap.vocab
         if image is None:
-            return [self._prior(snap, decision, x) for x in decision.candidates], None, "prior"
+            priors = snap._priors.get(id(decision))
+            if priors is None:
+                priors = snap._priors[id(decision)] = [self._prior(snap, decision, x) for x in decision.candidates]
+            return list(priors), None, "prior"  # shared, frozen CandidateScores: read-only
         small = downscale(image, self.score_max_side)
         from ..vision.metrics import compute_metrics
 
