@@ -37,7 +37,7 @@ FRAME_KEYS = (
 FLOW_KEYS = ("flow_median", "flow_p90", "flow_valid")
 SATURATED = 250
 HIGHLIGHT_MAX_AREA = 0.004  # a specular highlight is a blob of at most 0.4 % of the frame
-_LK = dict(winSize=(15, 15), maxLevel=3, criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 20, 0.03))
+_LK = dict(winSize=(11, 11), maxLevel=3, criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 20, 0.03))
 
 
 def analysis_image(image: np.ndarray, side: int = ANALYSIS_SIDE) -> np.ndarray:
@@ -96,7 +96,7 @@ def _highlights(a: np.ndarray) -> tuple[float, float]:
 
 def _flow(prev: np.ndarray, cur: np.ndarray) -> tuple[float, float, float]:
     h, w = cur.shape
-    gx, gy = np.meshgrid(np.linspace(0.08 * w, 0.92 * w, 12), np.linspace(0.1 * h, 0.9 * h, 8))
+    gx, gy = np.meshgrid(np.linspace(0.08 * w, 0.92 * w, 8), np.linspace(0.1 * h, 0.9 * h, 6))
     pts = np.stack([gx.ravel(), gy.ravel()], 1).astype(np.float32).reshape(-1, 1, 2)
     nxt, st, _ = cv2.calcOpticalFlowPyrLK(prev, cur, pts, None, **_LK)
     back, st2, _ = cv2.calcOpticalFlowPyrLK(cur, prev, nxt, None, **_LK)
