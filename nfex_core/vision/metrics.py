@@ -248,9 +248,9 @@ def _near(targets: np.ndarray, queries: np.ndarray, shape: tuple[int, int]) -> n
     t = np.rint(targets).astype(np.intp)
     mask[np.clip(t[:, 1], 0, h - 1), np.clip(t[:, 0], 0, w - 1)] = 1
     r = int(EPSILON)
-    mask = cv2.dilate(mask, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1)))
+    near = cv2.dilate(mask, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1)))
     q = np.rint(queries).astype(np.intp)
-    return mask[np.clip(q[:, 1], 0, h - 1), np.clip(q[:, 0], 0, w - 1)].astype(bool)
+    return near[np.clip(q[:, 1], 0, h - 1), np.clip(q[:, 0], 0, w - 1)].astype(bool)
 
 
 def compute_metrics(

@@ -100,7 +100,7 @@ def test_same_frame_twice_gives_full_stability_and_repeatability(name: str, regi
     image = cv2.resize(euroc_pair[0], (640, 408), interpolation=cv2.INTER_AREA)
     feats = registry.extract(name, image)
     m = compute_metrics(feats, image, (feats, image))
-    assert m["stability"] == pytest.approx(1.0, abs=0.02)  # exact duplicates (same descriptor twice) may not cross-check
+    assert m["stability"] == pytest.approx(1.0, abs=0.02)  # exact duplicate descriptors fail the ratio test
     assert m["repeatability"] == 1.0
     assert m["motion"] == 0.0
 
