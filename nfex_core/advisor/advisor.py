@@ -40,6 +40,8 @@ class Snapshot:
     programs: dict[str, int]
     taken_at: float = field(default_factory=time.monotonic)
     _registry: Any = None
+    # context-only answers depend on the decision alone: computed once per context and snapshot
+    _priors: dict[int, list[CandidateScore]] = field(default_factory=dict)
 
     @property
     def registry(self) -> Any:
@@ -57,17 +59,6 @@ class FrameState:
 
     image: np.ndarray
     features: dict[str, Any]
-
-
-def to_grey(frame: np.ndarray) -> np.ndarray:
-    import cv2
-
-    if frame.ndim == 3:
-        code = cv2.COLOR_BGRA2GRAY if frame.shape[2] == 4 else cv2.COLOR_BGR2GRAY
-        frame = cv2.cvtColor(frame, code)
-    if frame.dtype != np.uint8:
-        frame = np.clip(frame, 0, 255).astype(np.uint8)
-    return frame
 
 
 def downscale(image: np.ndarray, max_side: int) -> np.ndarray:
@@ -138,7 +129,11 @@ class Advisor:
 
         snap = self.snapshot()
         given = snap.vocab.check_context(context or {})
-        image = to_grey(frame) if frame is not None else None
+        image = None
+        if frame is not None:
+            from ..vision.registry import as_grey_u8  # imports cv2: only when a frame comes
+
+            image = as_grey_u8(frame)
         lap("snapshot")
         entries, values = self._conditions(snap.vocab, given, image, previous)
         lap("conditions")
@@ -157,7 +152,7 @@ class Advisor:
         timings["total"] = sum(timings.values())
         return Selection(
             extractor=best.extractor,
-            params=best.params,
+            params=dict(best.params),
             mode=mode,
             candidates=tuple(sorted(scored, key=lambda c: -(c.score if c.score is not None else -np.inf))),
             pruned=tuple(PrunedCandidate(x, cs) for x, cs in sorted(decision.pruned.items())),
@@ -200,7 +195,10 @@ class Advisor:
     ) -> tuple[list[CandidateScore], FrameState | None, str]:
         vocab = snap.vocab
         if image is None:
-            return [self._prior(snap, decision, x) for x in decision.candidates], None, "prior"
+            priors = snap._priors.get(id(decision))
+            if priors is None:
+                priors = snap._priors[id(decision)] = [self._prior(snap, decision, x) for x in decision.candidates]
+            return list(priors), None, "prior"  # shared, frozen CandidateScores: read-only
         small = downscale(image, self.score_max_side)
         from ..vision.metrics import compute_metrics
 
