@@ -123,15 +123,26 @@ def test_extractor_put_get_delete(service: Service) -> None:
     assert_problem(httpx.get(service.url + "/v1/extractors/ORB_GRID"), 422, "unknown-name")
 
 
-def test_programs_route_without_or_with_the_dsl(service: Service) -> None:
-    assert "programs" in httpx.get(service.url + "/v1/programs").json()
-    r = httpx.put(service.url + "/v1/programs/pytest", content="prune SIFT when light is dark", headers={"content-type": "text/plain", **auth()})
-    try:
-        import nfex_core.rules.dsl  # noqa: F401
-    except ModuleNotFoundError:
-        assert_problem(r, 501, "not-implemented")
-        return
-    assert r.status_code in (200, 201, 400, 422), r.text
+def test_program_resource_with_the_dsl(service: Service) -> None:
+    pytest.importorskip("nfex_core.rules.dsl")
+    assert "default" in {p["name"] for p in httpx.get(service.url + "/v1/programs").json()["programs"]}
+    text = 'adjust BRISK.thresh by 0.9 when agent is drone and scene is indoor because "pytest: indoor drones"\n'
+    plain = {"content-type": "text/plain", **auth()}
+    r = httpx.put(service.url + "/v1/programs/pytest", content=text, headers=plain)
+    assert r.status_code == 201, r.text
+    assert "BRISK.thresh by 0.9" in httpx.get(service.url + "/v1/programs/pytest").json()["text"]
+    sel = httpx.post(service.url + "/v1/select", json={"context": {"agent": "drone", "scene": "indoor"}}).json()
+    brisk = next(c for c in sel["candidates"] if c["extractor"] == "BRISK")
+    assert any("pytest: indoor drones" in b["reason"] for a in brisk["adjustments"] for b in a["because"])
+    before = service.version()
+    syntax = assert_problem(httpx.put(service.url + "/v1/programs/pytest", content="adjust BRISK.thresh by\n", headers=plain), 400, "parse-error")
+    assert syntax["line"] == 2 and "api:pytest:2:1" in syntax["detail"]  # where the program ended early
+    assert_problem(httpx.put(service.url + "/v1/programs/pytest", content="adjust FAST9.thresh by 2 when light is dark\n", headers=plain), 422)
+    assert_problem(httpx.put(service.url + "/v1/programs/pytest", content=text, headers={"content-type": "application/json", **auth()}), 415)
+    assert_problem(httpx.put(service.url + "/v1/programs/pytest", content=text, headers={"content-type": "text/plain"}), 401)
+    assert service.version() == before
+    assert httpx.delete(service.url + "/v1/programs/pytest", headers=auth()).status_code == 200
+    assert_problem(httpx.get(service.url + "/v1/programs/pytest"), 404)
 
 
 def test_versions_diff_and_rollback(service: Service) -> None:
