@@ -161,18 +161,31 @@ class QueryRunner:
                 f"all {self.concurrency} query slots are busy (long-running queries); retry later", limit="concurrency"
             )
         writer = LimitedWriter(self.max_bytes, time.monotonic() + self.timeout_s, self.timeout_s)
+        loop = asyncio.get_running_loop()
         try:
-            fut = asyncio.get_running_loop().run_in_executor(self._pool, self._job, query, media, writer)
+            fut = loop.run_in_executor(self._pool, self._job, query, media, writer)
         except BaseException:
             self._slots.release()
             raise
-        fut.add_done_callback(lambda f: f.cancelled() or f.exception())  # an abandoned query's error is expected
+        # wait for the job or the deadline, whichever comes first (a timer and a callback: no extra tasks)
+        waiter = loop.create_future()
+
+        def wake(_: object = None) -> None:
+            if not waiter.done():
+                waiter.set_result(None)
+
+        fut.add_done_callback(wake)
+        timer = loop.call_later(self.timeout_s, wake)
         try:
-            return await asyncio.wait_for(asyncio.shield(fut), timeout=self.timeout_s)
-        except TimeoutError:
-            detail = f"the query ran past its time limit of {self.timeout_s:g} s"
-            writer.error = writer.error or QueryLimitExceeded(detail, limit="time")  # stops it at its next write
-            raise QueryLimitExceeded(detail, limit="time") from None
+            await waiter
+        finally:
+            timer.cancel()
+        if fut.done():
+            return fut.result()
+        fut.add_done_callback(lambda f: f.cancelled() or f.exception())  # an abandoned query's error is expected
+        detail = f"the query ran past its time limit of {self.timeout_s:g} s"
+        writer.error = writer.error or QueryLimitExceeded(detail, limit="time")  # stops it at its next write
+        raise QueryLimitExceeded(detail, limit="time")
 
     def close(self) -> None:
         self._pool.shutdown(wait=False, cancel_futures=True)
