@@ -116,7 +116,7 @@ def interleaved(n: int, a: Callable[[], httpx.Response], b: Callable[[], httpx.R
     """Latencies of a and b, alternating request by request, so machine load falls on both alike."""
     out_a: list[float] = []
     out_b: list[float] = []
-    for call, out in ((a, out_a), (b, out_b)):
+    for call in (a, b):
         for _ in range(50):
             call().raise_for_status()
     for _ in range(n):

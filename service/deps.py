@@ -30,19 +30,19 @@ class Forbidden(NfexError):
 
 
 def get_kg(request: Request) -> KnowledgeGraph:
-    return request.app.state.kg  # type: ignore[no-any-return]
+    return request.app.state.kg
 
 
 def get_advisor(request: Request) -> Advisor:
-    return request.app.state.advisor  # type: ignore[no-any-return]
+    return request.app.state.advisor
 
 
 def get_settings(request: Request) -> Settings:
-    return request.app.state.settings  # type: ignore[no-any-return]
+    return request.app.state.settings
 
 
 def get_sessions(request: Request) -> SessionStore:
-    return request.app.state.sessions  # type: ignore[no-any-return]
+    return request.app.state.sessions
 
 
 def editor(request: Request, authorization: Annotated[str | None, Header()] = None) -> Token:

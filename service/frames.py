@@ -66,10 +66,9 @@ async def read_select(request: Request, settings: Settings, *, frame_required: b
             unknown = set(form.keys()) - {"frame", "context"}
             if unknown:
                 raise BadInput(f"unknown form fields {sorted(unknown)}; send 'frame' (PNG/JPEG) and 'context' (JSON)")
-            ctx_field = form.get("context")
-            if isinstance(ctx_field, UploadFile):
-                ctx_field = await ctx_field.read()
-            context = parse_context(ctx_field)
+            ctx_part = form.get("context")
+            ctx_text: str | bytes | None = await ctx_part.read() if isinstance(ctx_part, UploadFile) else ctx_part
+            context = parse_context(ctx_text)
             part = form.get("frame")
             if part is None:
                 if frame_required:

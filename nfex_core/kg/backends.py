@@ -17,7 +17,7 @@ import json
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, Any
+from typing import Any, Protocol
 from urllib.parse import urlparse, urlunparse
 
 import httpx
@@ -29,6 +29,12 @@ from ..errors import BadInput, ParseError, QueryLimitExceeded, StoreUnavailable
 from .terms import from_oxigraph, from_sparql_json
 
 Row = dict[str, Node]
+
+
+class Sink(Protocol):
+    """Where ``query_to`` writes serialised results (a file, or a writer enforcing limits)."""
+
+    def write(self, data: bytes, /) -> int: ...
 
 
 @dataclass(frozen=True)
@@ -82,7 +88,7 @@ class Backend(ABC):
         """Run any query; return (body, media type, query form: select|ask|graph)."""
 
     @abstractmethod
-    def query_to(self, query: str, media: str, out: IO[bytes], timeout_s: float | None = None) -> str:
+    def query_to(self, query: str, media: str, out: Sink, timeout_s: float | None = None) -> str:
         """Run any query and write its results as ``media`` to ``out`` while they are produced (the
         HTTP endpoint passes a writer that enforces its time and size limits); returns the media type
         written, ``media`` or the form's default when ``media`` does not fit the query's form."""
@@ -157,7 +163,7 @@ class EmbeddedBackend(Backend):
         form = "ask" if isinstance(res, ox.QueryBoolean) else "select"
         return res.serialize(format=RESULT_FORMATS[media]) or b"", media, form
 
-    def query_to(self, query: str, media: str, out: IO[bytes], timeout_s: float | None = None) -> str:
+    def query_to(self, query: str, media: str, out: Sink, timeout_s: float | None = None) -> str:
         res = self._run(query)
         if isinstance(res, ox.QueryTriples):
             media = media if media in GRAPH_FORMATS else "text/turtle"
@@ -262,7 +268,7 @@ class RemoteBackend(Backend):
             form = "select"
         return r.content, media, form
 
-    def query_to(self, query: str, media: str, out: IO[bytes], timeout_s: float | None = None) -> str:
+    def query_to(self, query: str, media: str, out: Sink, timeout_s: float | None = None) -> str:
         try:
             with self._client.stream(
                 "POST",

@@ -23,10 +23,10 @@ pytest.importorskip("nfex_core.vision.context")
 
 @pytest.mark.slow
 def test_replay_kitti01_through_a_session(service: Service, data_dir: Path, tmp_path: Path) -> None:
-    from nfex_core.trajectory import read_trajectory
     from nfex_slam import replay
 
     from nfex_core.datasets import open_sequence
+    from nfex_core.trajectory import read_trajectory
 
     seq = open_sequence(data_dir / "kitti", "kitti", "01")
     before = service.version()

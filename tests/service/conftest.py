@@ -107,6 +107,15 @@ def remote_service(oxigraph_url: str, tmp_path_factory: pytest.TempPathFactory) 
     stop(svc.proc)
 
 
+@pytest.fixture(scope="session")
+def remote_replica(remote_service: Service, oxigraph_url: str, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Service]:
+    """A second replica on the same SPARQL server, as docker-compose.yml runs several."""
+    folder = tmp_path_factory.mktemp("remote-replica")
+    svc = start_service(oxigraph_url, folder / "service.log")
+    yield svc
+    stop(svc.proc)
+
+
 def assert_problem(r: httpx.Response, status: int, slug: str | None = None) -> dict:  # type: ignore[type-arg]
     assert r.status_code == status, (r.status_code, r.text[:500])
     assert r.headers["content-type"].startswith("application/problem+json"), r.headers["content-type"]

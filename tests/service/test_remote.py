@@ -1,6 +1,8 @@
 """Remote-store mode: the service keeps its graph in a real `oxigraph serve` (docker-compose's layout)."""
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
+
 import httpx
 
 from .conftest import Service, assert_problem, auth
@@ -31,3 +33,36 @@ def test_select_feedback_sparql_and_update_over_a_sparql_server(remote_service: 
     ok = httpx.post(svc.url + "/sparql/update", content="INSERT DATA { nfex:SIFT rdfs:seeAlso <https://example.org/r> }",
                     headers={"content-type": "application/sparql-update", **auth(), "If-Match": f'"{before}"'})
     assert ok.status_code == 200 and svc.version() == before + 1
+
+
+def test_replicas_share_the_graph_and_never_lose_a_write(remote_service: Service, remote_replica: Service) -> None:
+    """Editors write through two replicas at once without If-Match: every write lands, each once."""
+    head = remote_service.version()
+
+    def write(i: int) -> int:
+        svc = (remote_service, remote_replica)[i % 2]
+        r = httpx.post(svc.url + "/sparql/update", content=f"INSERT DATA {{ nfex:ORB rdfs:seeAlso <https://example.org/replica/{i}> }}",
+                       headers={"content-type": "application/sparql-update", **auth()}, timeout=60)
+        assert r.status_code == 200, r.text
+        return int(r.json()["version"])
+
+    with ThreadPoolExecutor(6) as pool:
+        versions = sorted(pool.map(write, range(12)))
+    assert versions == list(range(head + 1, head + 13))
+    rows = httpx.get(remote_replica.url + "/sparql", params={
+        "query": "SELECT ?x WHERE { nfex:ORB rdfs:seeAlso ?x FILTER STRSTARTS(STR(?x), 'https://example.org/replica/') }"}).json()
+    assert len(rows["results"]["bindings"]) == 12
+    # a rule written through one replica prunes in the other's next selection (it polls the head, 1 s)
+    query = ('SELECT ?extractor ?reason WHERE { FILTER (?agent = nfex:agent_drone && ?texture = nfex:texture_low) '
+             'BIND (nfex:ORB AS ?extractor) BIND ("pytest replica rule" AS ?reason) }')
+    r = httpx.put(remote_service.url + "/v1/rules/pytest-replica", json={"label": "replica", "query": query}, headers=auth())
+    assert r.status_code == 201, r.text
+    import time
+
+    deadline = time.monotonic() + 10
+    while True:
+        sel = httpx.post(remote_replica.url + "/v1/select", json={"context": {"agent": "drone", "texture": "low"}}).json()
+        if "ORB" in {p["extractor"] for p in sel["pruned"]}:
+            break
+        assert time.monotonic() < deadline, "the replica never saw the rule"
+        time.sleep(0.2)

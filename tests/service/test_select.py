@@ -105,6 +105,12 @@ def test_huge_body_is_413_before_it_is_read(service: Service) -> None:
     assert_problem(r, 413, "payload-too-large")
 
 
+def test_huge_chunked_body_is_413_while_it_streams(service: Service) -> None:
+    chunks = (b" " * (1 << 20) for _ in range(6))  # no Content-Length: counted as it arrives
+    r = httpx.post(service.url + "/v1/select", content=chunks, headers={"content-type": "application/json"})
+    assert_problem(r, 413, "payload-too-large")
+
+
 BAD_REQUESTS = [
     ("unknown value", {"json": {"context": {"light": "purple"}}}, 422, "unknown-name"),
     ("unknown dimension", {"json": {"context": {"weather": "rain"}}}, 422, "unknown-name"),
