@@ -66,3 +66,13 @@ def test_replicas_share_the_graph_and_never_lose_a_write(remote_service: Service
             break
         assert time.monotonic() < deadline, "the replica never saw the rule"
         time.sleep(0.2)
+
+
+def test_a_slow_query_on_the_sparql_server_is_cut_at_the_time_limit(remote_service: Service) -> None:
+    import time
+
+    t0 = time.monotonic()
+    slow = "SELECT (COUNT(*) AS ?n) WHERE { ?a a nfex:ConditionValue . ?b ?p ?o . ?c ?q ?r }"
+    doc = assert_problem(httpx.get(remote_service.url + "/sparql", params={"query": slow}, timeout=30), 503, "query-limit")
+    assert doc["limit"] == "time" and time.monotonic() - t0 < 5
+    assert httpx.get(remote_service.url + "/healthz").status_code == 200

@@ -29,7 +29,10 @@ def test_session_lifecycle(service: Service) -> None:
         assert_problem(results[0], 501, "not-implemented")
     else:
         assert [x.json()["session"]["temporal"] for x in results] == [False, True]
-        assert httpx.get(f"{service.url}/v1/sessions/{sid}").json()["frames"] == 2
+        state = httpx.get(f"{service.url}/v1/sessions/{sid}").json()
+        assert state["frames"] == 2 and state["has_previous"]
+        assert state["state_bytes"] > 240 * 320  # the scoring image and the candidates' keypoints and descriptors
+        assert "nfex_session_state_bytes" in httpx.get(service.url + "/metrics").text
     r = httpx.post(f"{service.url}/v1/sessions/{sid}/frames", json={"context": {}})
     assert_problem(r, 400, "bad-input")  # a stream frame needs an image
     assert httpx.delete(f"{service.url}/v1/sessions/{sid}").status_code == 204
