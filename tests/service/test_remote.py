@@ -4,6 +4,7 @@ from __future__ import annotations
 from concurrent.futures import ThreadPoolExecutor
 
 import httpx
+import pytest
 
 from .conftest import Service, assert_problem, auth
 
@@ -35,6 +36,7 @@ def test_select_feedback_sparql_and_update_over_a_sparql_server(remote_service: 
     assert ok.status_code == 200 and svc.version() == before + 1
 
 
+@pytest.mark.slow
 def test_replicas_share_the_graph_and_never_lose_a_write(remote_service: Service, remote_replica: Service) -> None:
     """Editors write through two replicas at once without If-Match: every write lands, each once."""
     head = remote_service.version()
@@ -46,12 +48,12 @@ def test_replicas_share_the_graph_and_never_lose_a_write(remote_service: Service
         assert r.status_code == 200, r.text
         return int(r.json()["version"])
 
-    with ThreadPoolExecutor(6) as pool:
-        versions = sorted(pool.map(write, range(12)))
-    assert versions == list(range(head + 1, head + 13))
+    with ThreadPoolExecutor(4) as pool:
+        versions = sorted(pool.map(write, range(8)))
+    assert versions == list(range(head + 1, head + 9))
     rows = httpx.get(remote_replica.url + "/sparql", params={
         "query": "SELECT ?x WHERE { nfex:ORB rdfs:seeAlso ?x FILTER STRSTARTS(STR(?x), 'https://example.org/replica/') }"}).json()
-    assert len(rows["results"]["bindings"]) == 12
+    assert len(rows["results"]["bindings"]) == 8
     # a rule written through one replica prunes in the other's next selection (it polls the head, 1 s)
     query = ('SELECT ?extractor ?reason WHERE { FILTER (?agent = nfex:agent_drone && ?texture = nfex:texture_low) '
              'BIND (nfex:ORB AS ?extractor) BIND ("pytest replica rule" AS ?reason) }')
