@@ -1,0 +1,126 @@
+"""The advisor's check of a candidate (α, Θ′) against the context shapes in force — no pySHACL.
+
+The decision for a context carries the compiled shapes whose gate atoms hold there
+(``Decision.shapes``). For a candidate of extractor α with parameters Θ′ = g(Θ, E):
+
+- a prohibition that concerns α prunes it (the engine already removed such α from the candidates);
+- a violated bound ``θ_k ⋈ b`` is repaired by clamping θ_k to b (the nearest value of θ_k's datatype
+  that satisfies it), cited with the shape's IRI and sh:message, kind "shape" — unless the shape says
+  ``nfex:pruneOnViolation`` or the clamped value lies outside θ_k's range, which prunes α;
+- after repair every bound must hold (two shapes may contradict each other), otherwise α is pruned
+  citing the bound that still fails.
+
+``materialise`` writes the candidate as the RDF that pySHACL validates
+(tests/nfex_core/rules/test_shapes_compiled.py shows the two verdicts agree).
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+
+import rdflib
+from rdflib.namespace import RDF
+from rdflib.term import URIRef
+
+from ..fitness import Adjustment
+from ..kg.vocab import ExtractorSpec, ParameterSpec, Value, Vocabulary
+from ..namespaces import NFEX
+from .engine import Citation
+from .shapes import Bound, CompiledShape
+
+
+@dataclass(frozen=True)
+class ShapeOutcome:
+    params: dict[str, Value]
+    adjustments: tuple[Adjustment, ...] = ()
+    pruned: tuple[Citation, ...] = ()
+
+
+def violations(spec: ExtractorSpec, params: Mapping[str, Value], shapes: Iterable[CompiledShape]) -> list[CompiledShape]:
+    """The shapes in force that the unrepaired candidate violates (what pySHACL would report)."""
+    return [s for s in shapes if s.violated(spec, params)]
+
+
+def _step(p: ParameterSpec, value: float, up: bool) -> float:
+    if p.datatype == "integer":
+        return math.floor(value) + 1 if up else math.ceil(value) - 1
+    return math.nextafter(value, math.inf if up else -math.inf)
+
+
+def repair(bound: Bound, p: ParameterSpec) -> Value | None:
+    """The value of θ_k nearest the bound that satisfies it and lies in θ_k's range; None if none does."""
+    if p.datatype == "boolean" or p.allowed is not None:
+        candidates: list[Value] = [bound.literal.toPython()] if p.datatype == "boolean" else list(p.allowed or ())
+        ok = [v for v in candidates if _fits(p, v) and bound.holds(p, v)]
+        return ok[0] if ok else None
+    b = float(bound.literal.toPython())
+    v: float = b
+    if p.datatype == "integer":
+        v = {"<=": math.floor(b), ">=": math.ceil(b), "<": math.ceil(b) - 1, ">": math.floor(b) + 1}.get(bound.comparator, b)
+    for _ in range(3):  # a double bound may sit between two floats: step once or twice to the right side
+        if bound.holds(p, _typed(p, v)):
+            break
+        v = _step(p, v, up=bound.comparator in (">", ">="))
+    out = _typed(p, v)
+    return out if _fits(p, out) and bound.holds(p, out) else None
+
+
+def _typed(p: ParameterSpec, v: float) -> Value:
+    return int(v) if p.datatype == "integer" and float(v).is_integer() else float(v)
+
+
+def _fits(p: ParameterSpec, v: Value) -> bool:
+    try:
+        p.validate(v)
+    except Exception:
+        return False
+    return True
+
+
+def enforce(spec: ExtractorSpec, params: Mapping[str, Value], shapes: Iterable[CompiledShape]) -> ShapeOutcome:
+    """Repair Θ′ against the shapes that concern α, or prune α; see the module docstring."""
+    theta = dict(params)
+    mine = [s for s in shapes if s.concerns(spec.name)]
+    adjustments: list[Adjustment] = []
+    for s in mine:
+        if not s.violated(spec, theta):
+            continue
+        bound = s.bound
+        if bound is None or s.prune or bound.extractor != spec.name or bound.parameter not in theta:
+            return ShapeOutcome(theta, tuple(adjustments), (s.citation,))
+        fixed = repair(bound, spec.parameters[bound.parameter])
+        if fixed is None:
+            return ShapeOutcome(theta, tuple(adjustments), (s.citation,))
+        adjustments.append(Adjustment(bound.parameter, theta[bound.parameter], fixed, 1.0, (s.citation,)))
+        theta[bound.parameter] = fixed
+    still = violations(spec, theta, mine)
+    if still:
+        return ShapeOutcome(theta, tuple(adjustments), (still[0].citation,))
+    return ShapeOutcome(theta, tuple(adjustments))
+
+
+def materialise(
+    vocab: Vocabulary,
+    extractor: str,
+    params: Mapping[str, Value],
+    context: Mapping[str, str | None],
+    node: URIRef = NFEX.candidate,
+) -> rdflib.Graph:
+    """The candidate as RDF: a nfex:CandidateConfiguration with every setting and the known conditions."""
+    spec = vocab.extractor(extractor)
+    g = rdflib.Graph()
+    g.add((node, RDF.type, NFEX.CandidateConfiguration))
+    g.add((node, NFEX.ofExtractor, spec.iri))
+    for name, value in params.items():
+        setting = URIRef(f"{node}_{name}")
+        g.add((node, NFEX.hasSetting, setting))
+        g.add((setting, RDF.type, NFEX.ParameterSetting))
+        g.add((setting, NFEX.parameter, spec.parameters[name].iri))
+        g.add((setting, NFEX.value, spec.parameters[name].literal(value)))
+    for dim, value in context.items():
+        if value is not None:
+            v = vocab.dimensions[dim].values[value]
+            g.add((node, NFEX.underCondition, v.iri))
+            g.add((v.iri, NFEX.inDimension, vocab.dimensions[dim].iri))
+    return g
