@@ -25,8 +25,7 @@ import numpy as np
 
 from ..errors import NoCandidate
 from ..fitness import adjust_params, f_metrics
-from ..kg.vocab import Vocabulary
-from ..kg.vocab import ExtractorSpec, Value
+from ..kg.vocab import ExtractorSpec, Value, Vocabulary
 from ..rules.engine import Citation, Decision, RuleEngine, RuleTable
 from ..rules.shape_check import enforce
 from .selection import CandidateScore, ContextEntry, PrunedCandidate, Selection

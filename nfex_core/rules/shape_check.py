@@ -118,9 +118,9 @@ def materialise(
         g.add((setting, RDF.type, NFEX.ParameterSetting))
         g.add((setting, NFEX.parameter, spec.parameters[name].iri))
         g.add((setting, NFEX.value, spec.parameters[name].literal(value)))
-    for dim, value in context.items():
-        if value is not None:
-            v = vocab.dimensions[dim].values[value]
+    for dim, known in context.items():
+        if known is not None:
+            v = vocab.dimensions[dim].values[known]
             g.add((node, NFEX.underCondition, v.iri))
             g.add((v.iri, NFEX.inDimension, vocab.dimensions[dim].iri))
     return g

@@ -109,10 +109,14 @@ class CompiledShape:
 
 
 # ---------------------------------------------------------------------------------------- reading
+def _term(vocab: Vocabulary, node: Node) -> object:
+    return vocab.by_iri.get(node) if isinstance(node, URIRef) else None
+
+
 def _only(g: rdflib.Graph, node: Node, allowed: set[URIRef], what: str) -> None:
     extra = {p for p in g.predicates(node, None) if p not in allowed and p != RDF.type}
     if extra:
-        raise ShapeFormError(f"{what} has unexpected {', '.join(sorted(g.namespace_manager.normalizeUri(p) for p in extra))}")
+        raise ShapeFormError(f"{what} has unexpected {', '.join(sorted(g.namespace_manager.normalizeUri(str(p)) for p in extra))}")
 
 
 def _one(g: rdflib.Graph, node: Node, pred: URIRef, what: str) -> Node:
@@ -123,7 +127,7 @@ def _one(g: rdflib.Graph, node: Node, pred: URIRef, what: str) -> Node:
 
 
 def _value_spec(vocab: Vocabulary, node: Node) -> ConditionValueSpec:
-    spec = vocab.by_iri.get(node)  # type: ignore[arg-type]
+    spec = _term(vocab, node)
     if not isinstance(spec, ConditionValueSpec):
         raise ShapeFormError(f"{node} is not a condition value")
     return spec
@@ -149,7 +153,7 @@ def _atom(g: rdflib.Graph, vocab: Vocabulary, prop: Node) -> Atom:
         _only(g, dim_prop, {SH.path, SH.hasValue}, "a negated atom's dimension")
         if _one(g, dim_prop, SH.path, "a negated atom's dimension") != NFEX.inDimension:
             raise ShapeFormError("a negated condition atom names its dimension with nfex:inDimension")
-        dim = vocab.by_iri.get(_one(g, dim_prop, SH.hasValue, "a negated atom's dimension"))  # type: ignore[arg-type]
+        dim = _term(vocab, _one(g, dim_prop, SH.hasValue, "a negated atom's dimension"))
         inner = _one(g, q, SH["not"], "a negated condition atom")
         _only(g, inner, {SH["in"]}, "a negated condition atom's sh:not")
         values = [_value_spec(vocab, v) for v in Collection(g, _one(g, inner, SH["in"], "sh:not"))]
@@ -166,11 +170,11 @@ def _gate(g: rdflib.Graph, vocab: Vocabulary, gate: Node) -> tuple[str | None, t
     _only(g, gate, {SH.property}, "the gate")
     extractor: str | None = None
     atoms: list[Atom] = []
-    for prop in sorted(g.objects(gate, SH.property)):
+    for prop in sorted(g.objects(gate, SH.property), key=str):
         path = _one(g, prop, SH.path, "a gate property")
         if path == NFEX.ofExtractor:
             _only(g, prop, {SH.path, SH.hasValue}, "the gate's extractor")
-            x = vocab.by_iri.get(_one(g, prop, SH.hasValue, "the gate's extractor"))  # type: ignore[arg-type]
+            x = _term(vocab, _one(g, prop, SH.hasValue, "the gate's extractor"))
             if not isinstance(x, ExtractorSpec) or extractor is not None:
                 raise ShapeFormError("the gate names at most one known extractor")
             extractor = x.name
@@ -213,7 +217,7 @@ def _bound(g: rdflib.Graph, vocab: Vocabulary, req: Node) -> Bound | None:
             path = _one(g, p, SH.path, "a bound's setting shape")
             if path == NFEX.parameter:
                 _only(g, p, {SH.path, SH.hasValue}, "a bound's parameter")
-                param = vocab.by_iri.get(_one(g, p, SH.hasValue, "a bound's parameter"))  # type: ignore[arg-type]
+                param = _term(vocab, _one(g, p, SH.hasValue, "a bound's parameter"))
             elif path == NFEX.value:
                 _only(g, p, {SH.path, *COMPARATORS}, "a bound's value")
                 [(pred, lit)] = [(pr, o) for pr, o in g.predicate_objects(p) if pr in COMPARATORS]
@@ -249,14 +253,14 @@ def compile_shape(g: rdflib.Graph, vocab: Vocabulary, shape: Node) -> CompiledSh
 def context_shape_nodes(g: rdflib.Graph) -> list[Node]:
     """Shapes typed nfex:ContextShape or targeting candidates (pySHACL applies both)."""
     nodes = set(g.subjects(RDF.type, NFEX.ContextShape)) | set(g.subjects(SH.targetClass, NFEX.CandidateConfiguration))
-    return sorted(nodes)
+    return sorted(nodes, key=str)
 
 
 def require_as_shape(s: Statement) -> CompiledShape | None:
     """A DSL ``require`` that has no SHACL shape of its own, with the same semantics."""
     if s.extractor is None or s.parameter is None or s.value is None or s.comparator not in DSL_COMPARATORS:
         return None
-    bound = Bound(s.extractor, s.parameter, DSL_COMPARATORS[s.comparator], Literal(s.value))  # type: ignore[index]
+    bound = Bound(s.extractor, s.parameter, DSL_COMPARATORS[s.comparator], Literal(s.value))
     return CompiledShape(s.iri, s.label, s.reason, s.extractor, s.atoms, bound, kind="require", source=s.source)
 
 
