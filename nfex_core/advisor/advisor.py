@@ -42,6 +42,8 @@ class Snapshot:
     programs: dict[str, int]
     taken_at: float = field(default_factory=time.monotonic)
     _registry: Any = None
+    # context-only answers depend on the decision alone: computed once per context and snapshot
+    _priors: dict[int, tuple[list[CandidateScore], dict[str, tuple[Citation, ...]]]] = field(default_factory=dict)
 
     @property
     def registry(self) -> Any:
@@ -166,7 +168,7 @@ class Advisor:
         timings["total"] = sum(timings.values())
         return Selection(
             extractor=best.extractor,
-            params=best.params,
+            params=dict(best.params),
             mode=mode,
             candidates=tuple(sorted(scored, key=lambda c: -(c.score if c.score is not None else -np.inf))),
             pruned=tuple(PrunedCandidate(x, cs) for x, cs in sorted(pruned.items())),
@@ -210,14 +212,17 @@ class Advisor:
         vocab = snap.vocab
         cut: dict[str, tuple[Citation, ...]] = {}
         if image is None:
-            prior = []
-            for x in decision.candidates:
-                got = self._prior(snap, decision, x)
-                if isinstance(got, CandidateScore):
-                    prior.append(got)
-                else:
-                    cut[x] = got
-            return prior, None, "prior", cut
+            cached = snap._priors.get(id(decision))
+            if cached is None:
+                prior: list[CandidateScore] = []
+                for x in decision.candidates:
+                    got = self._prior(snap, decision, x)
+                    if isinstance(got, CandidateScore):
+                        prior.append(got)
+                    else:
+                        cut[x] = got
+                cached = snap._priors[id(decision)] = (prior, cut)
+            return list(cached[0]), None, "prior", dict(cached[1])  # shared, frozen CandidateScores: read-only
         small = downscale(image, self.score_max_side)
         from ..vision.metrics import compute_metrics
 

@@ -5,22 +5,27 @@ compiles (docs/shapes.md) — the DSL compiler calls it and links the statement 
 ``nfex:shape``. ``describe`` prints a compiled shape back as a DSL line, for ``nfex program show``:
 
     require ORB.fastThreshold <= 10 when light is dark
-    require SIFT.nOctaveLayers <= 3 when agent is drone or human   (prune on violation)
-    prune BRISK when light is dark and texture is low               (a prohibition)
+    require SIFT.nOctaveLayers <= 3 when agent is one of (drone, human)   # prune on violation
+    prune BRISK when light is dark and texture is low                     (a prohibition)
 """
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING
 
 import rdflib
 from rdflib.collection import Collection
 from rdflib.namespace import RDF, RDFS, SH
 from rdflib.term import BNode, Literal, Node, URIRef
 
+from ..kg.terms import is_skolem, n3
 from ..kg.vocab import Value, Vocabulary
 from ..namespaces import NFEX
-from .shapes import COMPARATORS, DSL_COMPARATORS, CompiledShape
+from .shapes import COMPARATORS, DSL_COMPARATORS, CompiledShape, ShapeFormError, compile_shape
 from .statements import Atom
+
+if TYPE_CHECKING:
+    from ..kg.store import KnowledgeGraph
 
 _PREDICATE = {v: k for k, v in COMPARATORS.items()}
 
@@ -104,7 +109,10 @@ def require_shape(
 
 
 def _atom_text(a: Atom) -> str:
-    return f"{a.dimension} is {'not ' if a.negated else ''}{' or '.join(sorted(a.values))}"
+    """As the DSL writes an atom: ``light is dark``, ``agent is not one of (car, human)``."""
+    values = sorted(a.values)
+    what = values[0] if len(values) == 1 else f"one of ({', '.join(values)})"
+    return f"{a.dimension} is {'not ' if a.negated else ''}{what}"
 
 
 def describe(shape: CompiledShape) -> str:
@@ -115,5 +123,37 @@ def describe(shape: CompiledShape) -> str:
         return f"prune {shape.extractor or 'every extractor'}{suffix}"
     b = shape.bound
     value = b.literal.toPython()
-    line = f"require {b.extractor}.{b.parameter} {b.comparator} {value}{suffix}"
-    return line + ("   (prune on violation)" if shape.prune else "")
+    text = str(value).lower() if isinstance(value, bool) else str(value)
+    line = f"require {b.extractor}.{b.parameter} {b.comparator} {text}{suffix}"
+    return line + ("   # prune on violation" if shape.prune else "")
+
+
+def shape_graph(kg: KnowledgeGraph, roots: Iterable[Node]) -> rdflib.Graph:
+    """The stored triples of shapes ``roots`` and of the (skolemised) nodes they hang on, as the store names them."""
+    out = rdflib.Graph()
+    seen: set[Node] = set()
+    frontier: set[Node] = {r for r in roots if isinstance(r, URIRef)}
+    while frontier:
+        seen |= frontier
+        g = kg.construct(f"CONSTRUCT {{ ?s ?p ?o }} WHERE {{ VALUES ?s {{ {' '.join(n3(n) for n in frontier)} }} ?s ?p ?o }}")
+        out += g
+        frontier = {o for o in g.objects() if is_skolem(o) and o not in seen}
+    return out
+
+
+def program_shapes(kg: KnowledgeGraph, program: str) -> list[tuple[str, str]]:
+    """(statement label, the DSL line read back from its SHACL shape) for each ``require`` of ``program``."""
+    from .dsl.compiler import program_iri
+
+    rows = kg.select(
+        f"SELECT ?label ?shape WHERE {{ ?s nfex:inProgram {n3(program_iri(program))} ; rdfs:label ?label ; nfex:shape ?shape ; nfex:order ?o }} ORDER BY ?o"
+    ).rows
+    g, vocab = kg.shapes().graph, kg.vocabulary()
+    out = []
+    for r in rows:
+        try:
+            line = f"{describe(compile_shape(g, vocab, r['shape']))}   # {r['shape']}"
+        except ShapeFormError as e:
+            line = f"# {r['shape']}: {e}"
+        out.append((str(r["label"]), line))
+    return out

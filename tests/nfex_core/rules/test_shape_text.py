@@ -28,7 +28,7 @@ def test_shipped_shapes_print_as_dsl_lines(kg: KnowledgeGraph) -> None:
     assert describe(compiled(kg, N + "shape_orb_dark_fast_threshold")) == "require ORB.fastThreshold <= 10 when light is dark"
     assert describe(compiled(kg, N + "shape_sift_fast_contrast")) == "require SIFT.contrastThreshold <= 0.03 when motion is fast"
     assert describe(compiled(kg, N + "shape_drone_sift_layers")) == (
-        "require SIFT.nOctaveLayers <= 3 when agent is drone or human   (prune on violation)"
+        "require SIFT.nOctaveLayers <= 3 when agent is one of (drone, human)   # prune on violation"
     )
     assert describe(compiled(kg, N + "shape_dark_low_texture_no_brisk")) in (
         "prune BRISK when light is dark and texture is low",
@@ -42,7 +42,7 @@ def test_shipped_shapes_print_as_dsl_lines(kg: KnowledgeGraph) -> None:
     [
         ("ORB.scaleFactor", "<", 1.3, (Atom("scene", frozenset({"outdoor"})),), "require ORB.scaleFactor < 1.3 when scene is outdoor"),
         ("AKAZE.threshold", ">=", 0.002, (Atom("reflectance", frozenset({"reflective"}), True),), "require AKAZE.threshold >= 0.002 when reflectance is not reflective"),
-        ("BRISK.thresh", ">", 40, (Atom("agent", frozenset({"car", "human"})),), "require BRISK.thresh > 40 when agent is car or human"),
+        ("BRISK.thresh", ">", 40, (Atom("agent", frozenset({"car", "human"})),), "require BRISK.thresh > 40 when agent is one of (car, human)"),
         ("BRISK.octaves", "=", 2, (), "require BRISK.octaves = 2"),
     ],
 )

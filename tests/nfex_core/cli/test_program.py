@@ -1,0 +1,63 @@
+"""`nfex program` as a user runs it: check with line and column, apply as a version, show, list, remove."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from tests.conftest import run_cli
+
+SITE = '''# site knowledge
+program site
+prune BRISK when light is dark because "measured: lost tracking at night"
+weight motion 2.0 when motion is fast
+'''
+
+
+def test_check_accepts_a_valid_program(cli_env: dict[str, str], tmp_path: Path) -> None:
+    f = tmp_path / "site.nfex"
+    f.write_text(SITE)
+    p = run_cli(["program", "check", str(f)], cli_env)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.strip() == "ok: program site, 2 statements"
+
+
+def test_check_reports_syntax_errors_with_line_and_column(cli_env: dict[str, str], tmp_path: Path) -> None:
+    f = tmp_path / "bad.nfex"
+    f.write_text("program bad\nadjust ORB.nfeatures 1.6 when light is dark\n")
+    p = run_cli(["program", "check", str(f)], cli_env)
+    assert p.returncode == 2
+    [line] = p.stderr.strip().splitlines()
+    assert line == f"nfex: parse error: {f}:2:22: unexpected '1.6'; expected 'by'"
+
+
+def test_check_lists_every_unknown_name_with_the_known_ones(cli_env: dict[str, str], tmp_path: Path) -> None:
+    f = tmp_path / "bad.nfex"
+    f.write_text("program bad\nprune SURF\nweight texturedness 2.0 when light is dim\n")
+    p = run_cli(["program", "check", str(f)], cli_env)
+    assert p.returncode == 2
+    out = p.stdout.splitlines()
+    assert out[0] == f"{f}:2:7: unknown extractor 'SURF'; known: AKAZE, BRISK, ORB, SIFT"
+    assert out[1] == f"{f}:3:39: unknown value of light 'dim'; known: bright, dark"
+    assert p.stderr.startswith("nfex: unknown name: ") and len(p.stderr.strip().splitlines()) == 1
+
+
+def test_apply_show_list_remove(cli_env: dict[str, str], tmp_path: Path) -> None:
+    f = tmp_path / "site.nfex"
+    f.write_text(SITE)
+    p = run_cli(["program", "apply", str(f), "-m", "night rules"], cli_env)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.startswith("version 2: program site, 2 statements")
+    versions = json.loads(run_cli(["kg", "versions", "--json"], cli_env).stdout)
+    assert versions[0]["message"] == "night rules" and versions[0]["author"] == "test"
+    again = run_cli(["program", "apply", str(f)], cli_env)
+    assert again.stdout.startswith("no change")
+    shown = run_cli(["program", "show", "site"], cli_env).stdout
+    assert shown == (
+        "program site\n\nprune BRISK when light is dark\n    because \"measured: lost tracking at night\"\n"
+        "weight motion 2.0 when motion is fast\n"
+    )
+    listed = json.loads(run_cli(["program", "list", "--json"], cli_env).stdout)
+    assert {(i["name"], i["statements"]) for i in listed} >= {("site", 2), ("default", 25)}
+    assert run_cli(["program", "remove", "site"], cli_env).returncode == 0
+    missing = run_cli(["program", "show", "site"], cli_env)
+    assert missing.returncode == 4 and "no program named 'site'" in missing.stderr

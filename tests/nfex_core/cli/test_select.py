@@ -1,0 +1,62 @@
+"""`nfex select`: from the context alone, and on a real KITTI frame where the vision modules exist."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from nfex_core.config import Settings
+from nfex_core.rules.dsl.seed import ontology_vocabulary
+from tests.conftest import run_cli
+
+
+def test_context_only_json(cli_env: dict[str, str]) -> None:
+    p = run_cli(["select", "--context", "agent=car,motion=fast,light=dark", "--json"], cli_env)
+    assert p.returncode == 0, p.stderr
+    sel = json.loads(p.stdout)
+    assert sel["mode"] == "prior" and sel["extractor"] in {"ORB", "AKAZE", "BRISK"}
+    [sift] = [x for x in sel["pruned"] if x["extractor"] == "SIFT"]
+    assert sift["because"][0]["rule"] == "https://w3id.org/nfex#rule_expert_fast_car_gradient_histograms"
+    sources = {c["dimension"]: c["source"] for c in sel["context"]}
+    assert sources == {"agent": "given", "motion": "given", "light": "given", "scene": "unknown", "reflectance": "unknown", "texture": "unknown"}
+    orb = next(c for c in sel["candidates"] if c["extractor"] == "ORB")
+    assert orb["params"]["fastThreshold"] == 10  # 20 × 0.5 in the dark (default.nfex)
+
+
+def test_context_only_text(cli_env: dict[str, str]) -> None:
+    p = run_cli(["select", "-c", "agent=car,motion=fast"], cli_env)
+    assert p.returncode == 0, p.stderr
+    assert "pruned:\n  SIFT: its gradient-histogram descriptor failed" in p.stdout
+    assert "nfeatures = " in p.stdout and "adjust ORB.nfeatures by 1.5 when agent is car" in p.stdout
+
+
+@pytest.mark.parametrize(
+    ("args", "code", "says"),
+    [
+        (["select", "--context", "light=dim"], 2, "unknown value of light 'dim'; known: bright, dark"),
+        (["select", "--context", "light"], 2, "dimension=value pairs"),
+        (["select", "missing.png"], 2, "no image file missing.png"),
+    ],
+)
+def test_errors_exit_by_kind(cli_env: dict[str, str], args: list[str], code: int, says: str) -> None:
+    p = run_cli(args, cli_env)
+    assert p.returncode == code and says in p.stderr and len(p.stderr.strip().splitlines()) == 1
+
+
+def test_a_kitti_frame_with_context(cli_env: dict[str, str], data_dir: Path) -> None:
+    pytest.importorskip("nfex_core.vision.metrics")
+    pytest.importorskip("nfex_core.vision.context")
+    frames = data_dir / "kitti" / "sequences" / "00" / "image_0"
+    p = run_cli(["select", str(frames / "000010.png"), "--previous", str(frames / "000009.png"),
+                 "--context", "agent=car,scene=outdoor", "--json"], cli_env)
+    assert p.returncode == 0, p.stderr
+    sel = json.loads(p.stdout)
+    assert sel["mode"] == "metrics"
+    best = next(c for c in sel["candidates"] if c["extractor"] == sel["extractor"])
+    assert best["keypoints"] > 0 and best["metrics"]
+    assert {c["dimension"]: c["source"] for c in sel["context"]}["agent"] == "given"
+    spec = ontology_vocabulary(Settings.from_env()).extractor(sel["extractor"])
+    assert set(sel["params"]) == set(spec.parameters)
+    for name, value in sel["params"].items():
+        assert spec.parameter(name).validate(value) == value

@@ -1,0 +1,13 @@
+"""A vocabulary read from the repository's ontology files (no store, ~0.1 s)."""
+from __future__ import annotations
+
+import pytest
+
+from nfex_core.config import Settings
+from nfex_core.kg.vocab import Vocabulary
+from nfex_core.rules.dsl.seed import ontology_vocabulary
+
+
+@pytest.fixture(scope="session")
+def vocab() -> Vocabulary:
+    return ontology_vocabulary(Settings.from_env())
