@@ -182,7 +182,8 @@ def _gate(g: rdflib.Graph, vocab: Vocabulary, gate: Node) -> tuple[str | None, t
             atoms.append(_atom(g, vocab, prop))
         else:
             raise ShapeFormError(f"the gate may read nfex:ofExtractor and nfex:underCondition, not {path}")
-    return extractor, tuple(atoms)
+    order = list(vocab.dimensions)  # SHACL keeps no order: atoms in the vocabulary's dimension order
+    return extractor, tuple(sorted(atoms, key=lambda a: (order.index(a.dimension), a.negated, sorted(a.values))))
 
 
 def _reads_settings(g: rdflib.Graph, node: Node) -> bool:
