@@ -124,3 +124,48 @@ def materialise(
             g.add((node, NFEX.underCondition, v.iri))
             g.add((v.iri, NFEX.inDimension, vocab.dimensions[dim].iri))
     return g
+
+
+def _witness(shape: CompiledShape, vocab: Vocabulary) -> dict[str, str | None] | None:
+    """A context in which the shape's gate atoms hold (None when this simple choice finds none)."""
+    ctx: dict[str, str | None] = {}
+    for a in shape.atoms:
+        values = sorted(a.values) if not a.negated else sorted(set(vocab.dimensions[a.dimension].values) - a.values)
+        if values:
+            ctx.setdefault(a.dimension, values[0])
+    return ctx if shape.applies(ctx) else None
+
+
+def verify_prohibitions(shapes: list[CompiledShape], vocab: Vocabulary, graph: rdflib.Graph) -> tuple[list[CompiledShape], list[str]]:
+    """Keep a prohibition only if pySHACL rejects a candidate its gate admits (once per graph version).
+
+    A requirement that reads no setting is compiled as "prune wherever the gate holds"; this checks the
+    claim on one candidate per extractor (defaults) in one context where the gate holds.
+    """
+    from ..kg.validation import _run_pyshacl, shapes_closure
+
+    kept: list[CompiledShape] = []
+    errors: list[str] = []
+    for s in shapes:
+        ctx = _witness(s, vocab) if s.bound is None else None
+        if ctx is None:
+            kept.append(s)
+            continue
+        data = rdflib.Graph()
+        nodes = set()
+        for x, spec in vocab.extractors.items():
+            if s.concerns(x):
+                node = URIRef(f"{NFEX}witness_{x}")
+                nodes.add(str(node))
+                data += materialise(vocab, x, spec.defaults(), ctx, node)
+        closure = shapes_closure({s.iri}, lambda ns: (t for n in ns for t in graph.triples((n, None, None))))
+        results, _ = _run_pyshacl(data, closure, None)
+        missed = nodes - {r.focus_node for r in results if r.source_shape == str(s.iri)}
+        if missed:
+            errors.append(
+                f"{s.iri}: its requirement is neither a parameter bound nor violated by a candidate its gate admits "
+                f"({', '.join(sorted(m.rsplit('_', 1)[-1] for m in missed))} under {ctx}); not compiled (docs/shapes.md)"
+            )
+        else:
+            kept.append(s)
+    return kept, errors

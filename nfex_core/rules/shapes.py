@@ -275,6 +275,10 @@ def load_context_shapes(kg: KnowledgeGraph, vocab: Vocabulary, statements: list[
             out.append(compile_shape(g, vocab, node))
         except ShapeFormError as e:
             errors.append(f"{node}: {e} (docs/shapes.md)")
+    from .shape_check import verify_prohibitions  # shape_check imports this module
+
+    out, unverified = verify_prohibitions(out, vocab, g)
+    errors += unverified
     for s in statements:
         if s.kind == "require" and s.shape is None:
             shape = require_as_shape(s)

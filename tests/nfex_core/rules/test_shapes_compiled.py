@@ -159,3 +159,26 @@ def test_bounds_are_repaired_by_clamping_and_prune_flag_prunes(kg: KnowledgeGrap
     out = enforce(sift, {**sift.defaults(), "nOctaveLayers": 4}, d.shapes)
     assert [c.rule for c in out.pruned] == [N + "shape_drone_sift_layers"]
     assert not enforce(sift, sift.defaults(), d.shapes).pruned
+
+
+BAD = """@prefix nfex: <https://w3id.org/nfex#> . @prefix sh: <http://www.w3.org/ns/shacl#> .
+nfex:shape_test_vacuous a sh:NodeShape, nfex:ContextShape ; sh:targetClass nfex:CandidateConfiguration ;
+    sh:or ( [ sh:not [ sh:property [ sh:path nfex:ofExtractor ; sh:hasValue nfex:BRISK ] ,
+                                   [ sh:path nfex:underCondition ; sh:hasValue nfex:scene_indoor ] ] ]
+            [ sh:property [ sh:path nfex:ofExtractor ; sh:minCount 1 ] ] ) .
+nfex:shape_test_odd_gate a sh:NodeShape, nfex:ContextShape ; sh:targetClass nfex:CandidateConfiguration ;
+    sh:or ( [ sh:not [ sh:property [ sh:path nfex:token ; sh:hasValue "x" ] ] ]
+            [ sh:not [ sh:property [ sh:path nfex:ofExtractor ; sh:hasValue nfex:BRISK ] ] ] ) .
+"""
+
+
+def test_shapes_not_of_the_compiled_form_are_reported_not_applied(kg: KnowledgeGraph) -> None:
+    import rdflib as _rdflib
+
+    kg.add(_rdflib.Graph().parse(data=BAD, format="turtle"), author="t")
+    table = compile_table(kg)
+    vacuous = [e for e in table.errors if "shape_test_vacuous" in e]
+    odd = [e for e in table.errors if "shape_test_odd_gate" in e]
+    assert len(vacuous) == 1 and "neither a parameter bound nor violated" in vacuous[0] and "BRISK" in vacuous[0]
+    assert len(odd) == 1 and "the gate may read" in odd[0]
+    assert "BRISK" in table.decide({"scene": "indoor"}).candidates
