@@ -63,10 +63,10 @@ def _check_statement(program: Program, s: Statement, vocab: Vocabulary) -> list[
         if atom.dimension not in vocab.dimensions:
             out.append(_unknown(program, atom.at.get("dimension", s.pos), "condition dimension", atom.dimension, vocab.dimensions))
             continue
-        known = vocab.dimensions[atom.dimension].values
+        values = vocab.dimensions[atom.dimension].values
         for v in atom.values:
-            if v not in known:
-                out.append(_unknown(program, atom.at.get(f"value:{v}", s.pos), f"value of {atom.dimension}", v, known))
+            if v not in values:
+                out.append(_unknown(program, atom.at.get(f"value:{v}", s.pos), f"value of {atom.dimension}", v, values))
     return out
 
 

@@ -22,7 +22,14 @@ from rdflib.namespace import RDF, RDFS, XSD
 from rdflib.term import Literal, URIRef
 
 from ...errors import NotFound
-from ...kg.vocab import ConditionValueSpec, DimensionSpec, ExtractorSpec, MetricSpec, ParameterSpec, Vocabulary
+from ...kg.vocab import (
+    ConditionValueSpec,
+    DimensionSpec,
+    ExtractorSpec,
+    MetricSpec,
+    ParameterSpec,
+    Vocabulary,
+)
 from ...namespaces import NFEX
 from .parser import Atom, Pos, Program, Statement
 

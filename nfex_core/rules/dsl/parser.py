@@ -131,7 +131,7 @@ def _pos(tok: Token) -> Pos:
 
 
 @v_args(meta=True)
-class _ToAst(Transformer):  # type: ignore[type-arg]
+class _ToAst(Transformer):
     def start(self, meta: Any, items: list[Any]) -> tuple[str | None, tuple[Statement, ...]]:
         name = items[0] if items and isinstance(items[0], str) else None
         return name, tuple(i for i in items if isinstance(i, Statement))
@@ -253,7 +253,7 @@ def parse(text: str, *, name: str | None = None, source: str | None = None) -> P
             if tok.type == "$END":
                 line, column = text.count("\n") + 1, len(text.rsplit("\n", 1)[-1]) + 1
         elif isinstance(e, lark.exceptions.UnexpectedCharacters):
-            char = text[e.pos_in_stream]
+            char = text[e.pos_in_stream or 0]
             msg = "unterminated string (a reason ends with \" on the same line)" if char == '"' else f"unexpected character {char!r}"
             if e.allowed:
                 msg += f"; expected {_expected(set(e.allowed))}"

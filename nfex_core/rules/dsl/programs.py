@@ -95,6 +95,6 @@ def programs(kg: KnowledgeGraph) -> list[ProgramInfo]:
         } GROUP BY ?p ?name ?file ORDER BY ?name"""
     ).rows
     return [
-        ProgramInfo(str(r["name"]), str(r["p"]), int(r["n"].toPython()), str(r["file"]) if "file" in r else None)  # type: ignore[union-attr]
+        ProgramInfo(str(r["name"]), str(r["p"]), int(str(r["n"])), str(r["file"]) if "file" in r else None)
         for r in rows
     ]

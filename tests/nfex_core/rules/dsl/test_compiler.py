@@ -53,7 +53,7 @@ def programs(vocab: Vocabulary) -> st.SearchStrategy[Program]:
     return st.builds(Program, NAME, st.lists(statements(vocab), max_size=8).map(tuple))
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(data=st.data())
 def test_round_trip_parse_compile_decompile_parse(vocab: Vocabulary, data: st.DataObject) -> None:
     program = data.draw(programs(vocab))
