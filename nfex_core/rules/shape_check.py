@@ -49,7 +49,11 @@ def _step(p: ParameterSpec, value: float, up: bool) -> float:
 
 
 def repair(bound: Bound, p: ParameterSpec) -> Value | None:
-    """The value of θ_k nearest the bound that satisfies it and lies in θ_k's range; None if none does."""
+    """The value of θ_k nearest the bound that satisfies it and lies in θ_k's range; None if none does.
+
+    The bound is moved to θ_k's datatype on its satisfied side (an integer ``< 10`` is 9, a double
+    ``< b`` the float below b), then into θ_k's range.
+    """
     if p.datatype == "boolean" or p.allowed is not None:
         candidates: list[Value] = [bound.literal.toPython()] if p.datatype == "boolean" else list(p.allowed or ())
         ok = [v for v in candidates if _fits(p, v) and bound.holds(p, v)]
@@ -62,7 +66,7 @@ def repair(bound: Bound, p: ParameterSpec) -> Value | None:
         if bound.holds(p, _typed(p, v)):
             break
         v = _step(p, v, up=bound.comparator in (">", ">="))
-    out = _typed(p, v)
+    out = p.clamp(v)  # a bound beyond the range: the range's end may still satisfy it
     return out if _fits(p, out) and bound.holds(p, out) else None
 
 
