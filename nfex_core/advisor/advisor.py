@@ -2,7 +2,8 @@
 
     frame + context ─► conditions: fill unknown dimensions from the frame (vision.context)
                     ─► symbolic: candidates C(E) with the rules that pruned the others (rules.engine)
-                    ─► params: Θ′ per candidate = g(Θ, E), clamped to the graph's ranges (fitness)
+                    ─► params: Θ′ per candidate = g(Θ, E), clamped to the graph's ranges (fitness),
+                               repaired or pruned by the context shapes in force (rules.shape_check)
                     ─► selection: α* = argmax over C(E) of F_metrics on the frame (fitness, vision)
                     ─► Selection {α*, Θ′, scores, pruned + reasons, context used, versions, timings}
 
@@ -24,8 +25,9 @@ import numpy as np
 
 from ..errors import NoCandidate
 from ..fitness import adjust_params, f_metrics
-from ..kg.vocab import Vocabulary
-from ..rules.engine import Decision, RuleEngine, RuleTable
+from ..kg.vocab import ExtractorSpec, Value, Vocabulary
+from ..rules.engine import Citation, Decision, RuleEngine, RuleTable
+from ..rules.shape_check import enforce
 from .selection import CandidateScore, ContextEntry, PrunedCandidate, Selection
 
 if TYPE_CHECKING:
@@ -41,7 +43,7 @@ class Snapshot:
     taken_at: float = field(default_factory=time.monotonic)
     _registry: Any = None
     # context-only answers depend on the decision alone: computed once per context and snapshot
-    _priors: dict[int, list[CandidateScore]] = field(default_factory=dict)
+    _priors: dict[int, tuple[list[CandidateScore], dict[str, tuple[Citation, ...]]]] = field(default_factory=dict)
 
     @property
     def registry(self) -> Any:
@@ -145,8 +147,15 @@ class Advisor:
                 pruned=[PrunedCandidate(x, cs).as_dict() for x, cs in decision.pruned.items()],
             )
         lap("symbolic")
-        scored, state, mode = self._score(snap, decision, image, previous)
+        scored, state, mode, cut = self._score(snap, decision, image, previous)
         lap("selection")
+        pruned = {**decision.pruned, **cut}
+        if not scored:
+            raise NoCandidate(
+                "every extractor is pruned in this context: "
+                + "; ".join(f"{x}: {cs[0].reason} [{cs[0].label}]" for x, cs in pruned.items()),
+                pruned=[PrunedCandidate(x, cs).as_dict() for x, cs in pruned.items()],
+            )
         best = max(scored, key=lambda c: (c.score if c.score is not None else -np.inf, -_cost(decision, c.extractor)))
         spec = snap.vocab.extractor(best.extractor)
         timings["total"] = sum(timings.values())
@@ -155,7 +164,7 @@ class Advisor:
             params=dict(best.params),
             mode=mode,
             candidates=tuple(sorted(scored, key=lambda c: -(c.score if c.score is not None else -np.inf))),
-            pruned=tuple(PrunedCandidate(x, cs) for x, cs in sorted(decision.pruned.items())),
+            pruned=tuple(PrunedCandidate(x, cs) for x, cs in sorted(pruned.items())),
             context=tuple(entries),
             weights=dict(decision.weights),
             versions={"graph": snap.version, "programs": snap.programs, "rules": len(snap.table.rules)},
@@ -192,13 +201,21 @@ class Advisor:
 
     def _score(
         self, snap: Snapshot, decision: Decision, image: np.ndarray | None, previous: FrameState | None
-    ) -> tuple[list[CandidateScore], FrameState | None, str]:
+    ) -> tuple[list[CandidateScore], FrameState | None, str, dict[str, tuple[Citation, ...]]]:
         vocab = snap.vocab
+        cut: dict[str, tuple[Citation, ...]] = {}
         if image is None:
-            priors = snap._priors.get(id(decision))
-            if priors is None:
-                priors = snap._priors[id(decision)] = [self._prior(snap, decision, x) for x in decision.candidates]
-            return list(priors), None, "prior"  # shared, frozen CandidateScores: read-only
+            cached = snap._priors.get(id(decision))
+            if cached is None:
+                prior: list[CandidateScore] = []
+                for x in decision.candidates:
+                    got = self._prior(snap, decision, x)
+                    if isinstance(got, CandidateScore):
+                        prior.append(got)
+                    else:
+                        cut[x] = got
+                cached = snap._priors[id(decision)] = (prior, cut)
+            return list(cached[0]), None, "prior", dict(cached[1])  # shared, frozen CandidateScores: read-only
         small = downscale(image, self.score_max_side)
         from ..vision.metrics import compute_metrics
 
@@ -206,10 +223,12 @@ class Advisor:
         features: dict[str, Any] = {}
         for x in decision.candidates:
             spec = vocab.extractor(x)
-            factors = decision.factors.get(x, {})
-            params, adjustments = adjust_params(spec, factors, pixels=int(image.shape[0] * image.shape[1]))
+            params, adjustments, because = _candidate(spec, decision, int(image.shape[0] * image.shape[1]))
+            if because:
+                cut[x] = because
+                continue
             # F_metrics is measured on the scoring image, with count parameters scaled to its size
-            score_params, _ = adjust_params(spec, factors, pixels=int(small.shape[0] * small.shape[1]))
+            score_params, _, _ = _candidate(spec, decision, int(small.shape[0] * small.shape[1]))
             feats = snap.registry.extract(x, small, score_params)
             features[x] = feats
             prev = None
@@ -230,12 +249,14 @@ class Advisor:
                     evidence=_evidence_dict(decision, x),
                 )
             )
-        return out, FrameState(small, features), "metrics"
+        return out, FrameState(small, features), "metrics", cut
 
-    def _prior(self, snap: Snapshot, decision: Decision, x: str) -> CandidateScore:
+    def _prior(self, snap: Snapshot, decision: Decision, x: str) -> CandidateScore | tuple[Citation, ...]:
         """Without a frame: the preference bonus plus measured accuracy (best mean ATE / this one's)."""
         spec = snap.vocab.extractor(x)
-        params, adjustments = adjust_params(spec, decision.factors.get(x, {}))
+        params, adjustments, because = _candidate(spec, decision, None)
+        if because:
+            return because
         bonus = decision.bonuses[x].value if x in decision.bonuses else 0.0
         measured = [e.mean_ate for e in decision.evidence.values() if e.mean_ate]
         own = decision.evidence.get(x)
@@ -248,6 +269,13 @@ class Advisor:
             adjustments=tuple(adjustments),
             evidence=_evidence_dict(decision, x),
         )
+
+
+def _candidate(spec: ExtractorSpec, decision: Decision, pixels: int | None) -> tuple[dict[str, Value], list[Any], tuple[Citation, ...]]:
+    """Θ′ = g(Θ, E) checked against the context shapes: repaired Θ′, every adjustment, or why α is pruned."""
+    params, adjustments = adjust_params(spec, decision.factors.get(spec.name, {}), pixels=pixels)
+    outcome = enforce(spec, params, decision.shapes)
+    return outcome.params, [*adjustments, *outcome.adjustments], outcome.pruned
 
 
 def _evidence_dict(decision: Decision, x: str) -> dict[str, Any]:

@@ -58,7 +58,10 @@ def apply(
 
 
 @app.command()
-def show(name: Annotated[str | None, typer.Argument(help="The program's name (default: every program).")] = None) -> None:
+def show(
+    name: Annotated[str | None, typer.Argument(help="The program's name (default: every program).")] = None,
+    shapes: Annotated[bool, typer.Option("--shapes", help="Also print each require's SHACL shape, read back as a DSL line.")] = False,
+) -> None:
     """Print a program's text as the graph holds it (read back from its triples)."""
     from ..rules.dsl import programs
     from ..rules.dsl.parser import render
@@ -68,6 +71,12 @@ def show(name: Annotated[str | None, typer.Argument(help="The program's name (de
     if not names:
         raise NotFound("the graph holds no program")
     typer.echo("\n".join(render(programs.show(kg, n)) for n in names), nl=False)
+    if shapes:
+        from ..rules.shape_text import program_shapes
+
+        for n in names:
+            for _, line in program_shapes(kg, n):
+                typer.echo(f"# shape: {line}")
 
 
 @app.command("list")

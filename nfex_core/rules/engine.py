@@ -2,9 +2,9 @@
 
 The condition space is finite — each dimension takes one of its values or is unknown — so the engine
 evaluates every SPARQL pruning rule once for all contexts (one query per rule, see pruning.py) and
-every DSL statement for all contexts, and stores a ``Decision`` per context: the candidates, the pruned
+every DSL statement and context shape (shapes.py) for all contexts, and stores a ``Decision`` per context: the candidates, the pruned
 extractors with the rules that pruned them, the parameter factors f_kj, the metric weights h_x, the
-preference bonuses, the ``require`` constraints in force, and the measured evidence per extractor. A
+preference bonuses, the ``require`` constraints and context shapes in force, and the measured evidence per extractor. A
 request then pays one dictionary lookup. ``compile_table`` runs again when the graph version changes.
 
 Composition (paper §IV-A): several ``adjust`` statements on one parameter multiply
@@ -27,6 +27,7 @@ from .statements import Statement, load_statements
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
+    from .shapes import CompiledShape
 
 log = logging.getLogger("nfex.rules")
 ContextKey = tuple[str | None, ...]
@@ -71,6 +72,7 @@ class Decision:
     bonuses: Mapping[str, Factor]
     requires: tuple[Statement, ...] = ()
     evidence: Mapping[str, Evidence] = field(default_factory=dict)
+    shapes: tuple[CompiledShape, ...] = ()  # context shapes whose gate holds here (rules/shape_check.py)
 
 
 def _citation(s: Statement) -> Citation:
@@ -148,6 +150,10 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
                     pruned_by_rules.setdefault(i, []).append((spec.name, Citation(str(rule.iri), rule.label, reason, "sparql", rule.source)))  # type: ignore[attr-defined]
 
     statements = load_statements(kg, vocab)
+    from .shapes import load_context_shapes  # shapes.py imports this module
+
+    shapes, shape_errors = load_context_shapes(kg, vocab, statements)
+    errors += shape_errors
     evidence = _evidence(kg)
     decisions: dict[ContextKey, Decision] = {}
     for i, key in enumerate(keys):
@@ -176,6 +182,12 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
                 bonuses[s.extractor] = Factor(old.value + float(s.value), old.citations + (cite,))
             elif s.kind == "require":
                 requires.append(s)
+        in_force = tuple(sh for sh in shapes if sh.applies(context))
+        for sh in in_force:  # a prohibition prunes here; bounds are checked per candidate Θ′
+            if sh.bound is None:
+                for x in vocab.extractors:
+                    if sh.concerns(x):
+                        pruned.setdefault(x, []).append(sh.citation)
         known = [(d, v) for d, v in context.items() if v is not None]
         ev = {
             x: _combine([evidence[(x, d, v)] for d, v in known if (x, d, v) in evidence])
@@ -190,6 +202,7 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
             bonuses=bonuses,
             requires=tuple(requires),
             evidence={x: e for x, e in ev.items() if e.windows},
+            shapes=in_force,
         )
     ms = (time.perf_counter() - t0) * 1000
     log.info("compiled %d contexts, %d rules, %d statements at graph version %d in %.0f ms", len(keys), len(rules), len(statements), version, ms)

@@ -91,6 +91,7 @@ def compile_program(program: Program, vocab: Vocabulary, *, source_file: str | N
         if s.kind == "require":
             g.add((iri, NFEX.comparator, Literal(s.comparator)))
             g.add((iri, NFEX.bound, param.literal(param.coerce(s.value))))
+            g += _require_shape(iri, s, vocab, label)
         elif s.kind in VALUE_PROPERTY:
             g.add((iri, VALUE_PROPERTY[s.kind], _double(s.value)))
         for i, atom in enumerate(s.when, start=1):
@@ -103,6 +104,18 @@ def compile_program(program: Program, vocab: Vocabulary, *, source_file: str | N
             g.add((a, NFEX.negated, Literal(atom.negated)))
             for v in atom.values:
                 g.add((a, NFEX.oneOf, dim.value(v).iri))
+    return g
+
+
+def _require_shape(iri: URIRef, s: Statement, vocab: Vocabulary, label: str) -> rdflib.Graph:
+    """The context shape a ``require`` compiles to (docs/shapes.md), linked with ``nfex:shape``."""
+    from ..shape_text import require_shape
+    from ..statements import Atom as WhenAtom
+
+    shape = URIRef(f"{iri}_shape")
+    atoms = [WhenAtom(a.dimension, frozenset(a.values), a.negated) for a in s.when]
+    g = require_shape(shape, vocab, f"{s.extractor}.{s.parameter}", s.comparator or "", s.value if s.value is not None else 0, atoms, label=label, message=s.reason or "")
+    g.add((iri, NFEX.shape, shape))
     return g
 
 

@@ -16,6 +16,8 @@ from ...config import Settings
 from ...kg.changes import ChangeSet, graph_triples
 from ...kg.terms import n3
 from ...kg.vocab import Vocabulary
+from ...namespaces import NFEX
+from ..shape_text import shape_graph
 from .check import check
 from .compiler import compile_program, decompile, program_iri
 from .parser import Program, parse, parse_file
@@ -55,13 +57,15 @@ def compile_text(text: str, vocab: Vocabulary, *, name: str, source: str | None 
 def program_graph(kg: KnowledgeGraph, name: str) -> rdflib.Graph:
     """Every triple of the program ``name`` in the graph: the program node, its statements and their atoms."""
     p = n3(program_iri(name))
-    return kg.construct(
+    g = kg.construct(
         f"""CONSTRUCT {{ ?s ?p ?o }} WHERE {{
             {{ BIND ({p} AS ?s) ?s ?p ?o }}
             UNION {{ ?s nfex:inProgram {p} ; ?p ?o }}
             UNION {{ ?st nfex:inProgram {p} ; nfex:hasCondition ?s . ?s ?p ?o }}
         }}"""
     )
+    g += shape_graph(kg, set(g.objects(None, NFEX.shape)))  # the SHACL shapes of its require statements
+    return g
 
 
 def apply(kg: KnowledgeGraph, graph: rdflib.Graph, name: str, *, author: str, message: str = "", expected_version: int | None = None) -> CommitResult:
