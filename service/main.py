@@ -1,39 +1,90 @@
-"""The FastAPI application: ``create_app()`` wires the store, the routers and the error handler."""
+"""The FastAPI application: ``create_app()`` wires the store, the advisor, sessions, limits and routers."""
 from __future__ import annotations
 
+import logging
+import os
+import threading
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
 
 from nfex_core import __version__
+from nfex_core.advisor import Advisor
 from nfex_core.kg import KnowledgeGraph
 
 from . import problems
 from .config import Settings
-from .routes import health, vocabulary
+from .observability import Metrics, ServiceMiddleware, setup_logging
+from .routes import (
+    conditions,
+    extractors,
+    feedback,
+    health,
+    programs,
+    rules,
+    select,
+    sessions,
+    sparql,
+    versions,
+    vocabulary,
+)
+from .sessions import SessionStore
+from .sparql_exec import QueryRunner
+
+log = logging.getLogger("nfex.service")
+
+DESCRIPTION = """nFEX tells a SLAM front end which feature extractor (α) to run, with which parameters (Θ′),
+and why. Reads are open; writes need `Authorization: Bearer <token>` with the editor role
+(`NFEX_TOKENS`). Every error is RFC 9457 `application/problem+json`. Writes accept
+`If-Match: "<graph version>"` and answer 412 when the head moved."""
+
+
+def _warm(app: FastAPI) -> None:
+    """Build the advisor's snapshot (vocabulary, compiled rule table) so /readyz means ready to answer."""
+    try:
+        app.state.advisor.snapshot()
+        app.state.ready.set()
+        log.info("ready", extra={"fields": {"graph_version": app.state.advisor.snapshot().version}})
+    except Exception as e:  # reported by /readyz
+        app.state.warmup_error = f"{type(e).__name__}: {e}"
+        log.exception("warm-up failed")
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or Settings()
+    os.environ.setdefault("OPENCV_LOG_LEVEL", "ERROR")  # OpenCV's own warnings bypass Python logging
+    setup_logging(settings.log_level, settings.log_json)
+    metrics = Metrics()
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         core = settings.core()
         app.state.settings = settings
-        app.state.kg = KnowledgeGraph.open(core.store, settings=core)
+        app.state.tokens = settings.parsed_tokens()
+        app.state.metrics = metrics
+        app.state.kg = kg = KnowledgeGraph.open(core.store, settings=core)
+        app.state.advisor = Advisor(kg)
+        app.state.sessions = SessionStore(
+            ttl_s=settings.session_ttl_s, max_sessions=settings.max_sessions, memory_bytes=settings.session_memory_bytes
+        )
+        app.state.queries = QueryRunner(
+            kg.backend, timeout_s=settings.sparql_timeout_s, max_bytes=settings.sparql_max_bytes,
+            concurrency=settings.sparql_concurrency,
+        )
+        app.state.ready = threading.Event()
+        app.state.warmup_error = None
+        threading.Thread(target=_warm, args=(app,), name="nfex-warmup", daemon=True).start()
         try:
             yield
         finally:
-            app.state.kg.close()
+            app.state.queries.close()
+            kg.close()
 
-    app = FastAPI(
-        title="nFEX",
-        version=__version__,
-        summary="Which feature extractor to run, with which parameters, and why.",
-        lifespan=lifespan,
-    )
+    app = FastAPI(title="nFEX", version=__version__, summary="Which feature extractor to run, with which parameters, and why.",
+                  description=DESCRIPTION, lifespan=lifespan)
     problems.install(app)
-    app.include_router(health.router)
-    app.include_router(vocabulary.router)
+    for module in (health, vocabulary, select, sessions, feedback, sparql, extractors, conditions, rules, programs, versions):
+        app.include_router(module.router)
+    app.add_middleware(ServiceMiddleware, metrics=metrics, max_body_bytes=settings.max_body_bytes)
     return app

@@ -1,4 +1,5 @@
-"""docker-compose.yml is accepted by `docker compose config` where the plugin exists, and is coherent."""
+"""docker-compose.yml is accepted by `docker compose config` where the plugin exists, and is coherent
+with the settings the service tests run with."""
 from __future__ import annotations
 
 import shutil
@@ -7,6 +8,8 @@ from pathlib import Path
 
 import yaml
 
+from tests.service.conftest import TEST_ENV
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -14,9 +17,14 @@ def test_compose_file_structure() -> None:
     doc = yaml.safe_load((ROOT / "docker-compose.yml").read_text())
     services = doc["services"]
     assert {"sparql", "nfex", "gateway"} <= set(services)
-    assert services["nfex"]["environment"]["NFEX_STORE"] == "http://sparql:7878"
+    env = services["nfex"]["environment"]
+    assert env["NFEX_STORE"] == "http://sparql:7878"
+    for key, value in TEST_ENV.items():  # the replicas run with the tests' settings
+        if key != "NFEX_TOKENS":
+            assert str(env[key]) == value, key
+    assert "NFEX_TOKENS" in env
     assert services["nfex"]["deploy"]["replicas"] >= 2
-    assert "serve" in services["sparql"]["command"]
+    assert "serve" in services["sparql"]["command"] and "--timeout-s" in services["sparql"]["command"]
     for volume in services["gateway"]["volumes"]:
         assert (ROOT / volume.split(":")[0]).exists()
     assert (ROOT / "Dockerfile").exists()

@@ -21,4 +21,8 @@ def serve(
 
     if state.store:
         os.environ["NFEX_STORE"] = state.store
-    uvicorn.run("service.main:create_app", factory=True, host=host, port=port, workers=workers, log_level=log_level)
+    # the app logs JSON itself (service/observability.py): keep uvicorn from installing its own handlers
+    uvicorn.run(
+        "service.main:create_app", factory=True, host=host, port=port, workers=workers, log_level=log_level,
+        log_config=None, access_log=False,
+    )

@@ -17,7 +17,7 @@ import json
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 from urllib.parse import urlparse, urlunparse
 
 import httpx
@@ -29,6 +29,12 @@ from ..errors import BadInput, ParseError, QueryLimitExceeded, StoreUnavailable
 from .terms import from_oxigraph, from_sparql_json
 
 Row = dict[str, Node]
+
+
+class Sink(Protocol):
+    """Where ``query_to`` writes serialised results (a file, or a writer enforcing limits)."""
+
+    def write(self, data: bytes, /) -> int: ...
 
 
 @dataclass(frozen=True)
@@ -80,6 +86,12 @@ class Backend(ABC):
     @abstractmethod
     def query_raw(self, query: str, accept: str) -> tuple[bytes, str, str]:
         """Run any query; return (body, media type, query form: select|ask|graph)."""
+
+    @abstractmethod
+    def query_to(self, query: str, media: str, out: Sink, timeout_s: float | None = None) -> str:
+        """Run any query and write its results as ``media`` to ``out`` while they are produced (the
+        HTTP endpoint passes a writer that enforces its time and size limits); returns the media type
+        written, ``media`` or the form's default when ``media`` does not fit the query's form."""
 
     def close(self) -> None:  # noqa: B027 - optional hook
         pass
@@ -150,6 +162,16 @@ class EmbeddedBackend(Backend):
         media = accept if accept in RESULT_FORMATS else "application/sparql-results+json"
         form = "ask" if isinstance(res, ox.QueryBoolean) else "select"
         return res.serialize(format=RESULT_FORMATS[media]) or b"", media, form
+
+    def query_to(self, query: str, media: str, out: Sink, timeout_s: float | None = None) -> str:
+        res = self._run(query)
+        if isinstance(res, ox.QueryTriples):
+            media = media if media in GRAPH_FORMATS else "text/turtle"
+            res.serialize(out, format=GRAPH_FORMATS[media])
+        else:
+            media = media if media in RESULT_FORMATS else "application/sparql-results+json"
+            res.serialize(out, format=RESULT_FORMATS[media])
+        return media
 
     def flush(self) -> None:
         self._store.flush()
@@ -245,6 +267,26 @@ class RemoteBackend(Backend):
         else:
             form = "select"
         return r.content, media, form
+
+    def query_to(self, query: str, media: str, out: Sink, timeout_s: float | None = None) -> str:
+        try:
+            with self._client.stream(
+                "POST",
+                self.query_url,
+                content=query.encode("utf-8"),
+                headers={"Content-Type": "application/sparql-query", "Accept": media},
+                timeout=timeout_s if timeout_s is not None else httpx.USE_CLIENT_DEFAULT,
+            ) as r:
+                if r.status_code >= 300:
+                    r.read()
+                    self._check(r, "query")
+                for chunk in r.iter_bytes():
+                    out.write(chunk)
+                return r.headers.get("content-type", media).split(";")[0].strip()
+        except httpx.TimeoutException as e:
+            raise QueryLimitExceeded(f"the SPARQL server at {self.query_url} did not answer in time", limit="time") from e
+        except httpx.HTTPError as e:
+            raise StoreUnavailable(f"cannot reach the SPARQL server at {self.query_url}: {e}") from e
 
     def close(self) -> None:
         self._client.close()

@@ -1,9 +1,14 @@
-"""Liveness and readiness."""
+"""Liveness, readiness and Prometheus metrics."""
 from __future__ import annotations
 
-from fastapi import APIRouter
+import sys
+from typing import Any
 
-from ..deps import KGDep
+from fastapi import APIRouter, Request
+from fastapi.responses import JSONResponse, Response
+from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
+
+from ..deps import KGDep, SessionsDep
 
 router = APIRouter(tags=["operations"])
 
@@ -13,6 +18,28 @@ def healthz() -> dict[str, str]:
     return {"status": "ok"}
 
 
-@router.get("/readyz", summary="The graph is loaded and answers")
-def readyz(kg: KGDep) -> dict[str, object]:
-    return {"status": "ready", "graph_version": kg.version, "store": kg.location}
+@router.get("/readyz", summary="The graph is loaded, the rule table compiled; 503 until then")
+def readyz(request: Request, kg: KGDep) -> JSONResponse:
+    state = request.app.state
+    body: dict[str, Any] = {
+        "status": "ready" if state.ready.is_set() else "starting",
+        "graph_version": kg.version,
+        "store": kg.location,
+        "torch_loaded": "torch" in sys.modules,
+    }
+    if state.warmup_error is not None:
+        body.update(status="failed", detail=state.warmup_error)
+    snap = state.advisor._snapshot
+    if snap is not None:
+        body["rule_table"] = {"version": snap.version, "rules": len(snap.table.rules), "contexts": len(snap.table.decisions),
+                              "compile_ms": round(snap.table.compile_ms, 1)}
+    return JSONResponse(body, status_code=200 if body["status"] == "ready" else 503)
+
+
+@router.get("/metrics", summary="Prometheus metrics of this process", response_class=Response)
+def metrics(request: Request, kg: KGDep, sessions: SessionsDep) -> Response:
+    m = request.app.state.metrics
+    m.sessions.set(len(sessions))
+    m.session_bytes.set(sessions.bytes_held)
+    m.graph_version.set(kg.version)
+    return Response(generate_latest(m.registry), media_type=CONTENT_TYPE_LATEST)

@@ -1,0 +1,238 @@
+"""Sync and async clients for the nFEX service. Both share ``_Requests``, which builds each request and
+reads each answer; only the transport differs (``httpx.Client`` vs ``httpx.AsyncClient``)."""
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, TypedDict
+
+import httpx
+
+from .errors import raise_for_problem
+
+Context = Mapping[str, str | None]
+
+
+class Selection(TypedDict, total=False):
+    extractor: str
+    params: dict[str, int | float | bool]
+    opencv: dict[str, str]
+    mode: str
+    candidates: list[dict[str, Any]]
+    pruned: list[dict[str, Any]]
+    context: list[dict[str, Any]]
+    weights: dict[str, Any]
+    versions: dict[str, Any]
+    timings_ms: dict[str, float]
+    session: dict[str, Any]
+
+
+class WriteResult(TypedDict, total=False):
+    version: int
+    changed: bool
+    added: int
+    removed: int
+    iri: str | None
+
+
+@dataclass(frozen=True)
+class Call:
+    method: str
+    path: str
+    kwargs: dict[str, Any]
+    parse: str = "json"  # json | text | none
+
+
+def _frame_bytes(frame: Any) -> tuple[bytes, str]:
+    if isinstance(frame, bytes | bytearray | memoryview):
+        data = bytes(frame)
+        return data, "image/jpeg" if data[:3] == b"\xff\xd8\xff" else "image/png"
+    from .opencv import encode_png
+
+    return encode_png(frame), "image/png"
+
+
+def _if_match(version: int | None) -> dict[str, str]:
+    return {"If-Match": f'"{version}"'} if version is not None else {}
+
+
+class _Requests:
+    """Request builders: one per endpoint."""
+
+    @staticmethod
+    def select(context: Context | None, frame: Any) -> Call:
+        if frame is None:
+            return Call("POST", "/v1/select", {"json": {"context": dict(context or {})}})
+        data, media = _frame_bytes(frame)
+        return Call("POST", "/v1/select", {"files": {"frame": ("frame", data, media)}, "data": {"context": json.dumps(dict(context or {}))}})
+
+    @staticmethod
+    def session_frame(session_id: str, frame: Any, context: Context | None) -> Call:
+        data, media = _frame_bytes(frame)
+        form = {"context": json.dumps(dict(context))} if context else {}
+        return Call("POST", f"/v1/sessions/{session_id}/frames", {"files": {"frame": ("frame", data, media)}, "data": form})
+
+    @staticmethod
+    def sparql(query: str, accept: str) -> Call:
+        parse = "json" if "json" in accept else "text"
+        return Call("POST", "/sparql", {"content": query.encode(), "headers": {"Content-Type": "application/sparql-query", "Accept": accept}}, parse)
+
+    @staticmethod
+    def update(update: str, if_match: int | None) -> Call:
+        return Call("POST", "/sparql/update", {"content": update.encode(), "headers": {"Content-Type": "application/sparql-update", **_if_match(if_match)}})
+
+
+def _result(call: Call, response: httpx.Response) -> Any:
+    raise_for_problem(response)
+    if call.parse == "none" or response.status_code == 204:
+        return None
+    if call.parse == "text":
+        return response.text
+    return response.json()
+
+
+class NfexClient:
+    """Blocking client. ``token`` is an editor's bearer token (reads need none)."""
+
+    def __init__(self, base_url: str, *, token: str | None = None, timeout: float = 30.0, **httpx_kwargs: Any) -> None:
+        headers = {"Authorization": f"Bearer {token}"} if token else {}
+        self.http = httpx.Client(base_url=base_url, timeout=timeout, headers=headers, **httpx_kwargs)
+
+    def __enter__(self) -> NfexClient:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        self.http.close()
+
+    def _do(self, call: Call) -> Any:
+        return _result(call, self.http.request(call.method, call.path, **call.kwargs))
+
+    def _json(self, method: str, path: str, **kwargs: Any) -> Any:
+        return self._do(Call(method, path, kwargs))
+
+    # -- selection and streams
+    def select(self, context: Context | None = None, frame: Any = None) -> Selection:
+        """α, Θ′ and why, for a context and optionally a frame (numpy array, or PNG/JPEG bytes)."""
+        return self._do(_Requests.select(context, frame))  # type: ignore[no-any-return]
+
+    def open_session(self, context: Context | None = None, client: str | None = None) -> dict[str, Any]:
+        return self._json("POST", "/v1/sessions", json={"context": dict(context or {}), "client": client})  # type: ignore[no-any-return]
+
+    def session_frame(self, session_id: str, frame: Any, context: Context | None = None) -> Selection:
+        return self._do(_Requests.session_frame(session_id, frame, context))  # type: ignore[no-any-return]
+
+    def close_session(self, session_id: str) -> None:
+        self._do(Call("DELETE", f"/v1/sessions/{session_id}", {}, "none"))
+
+    def feedback(self, **fields: Any) -> WriteResult:
+        """Report a measured result (extractor, params, context, window, ate_rmse, tracking_lost…)."""
+        return self._json("POST", "/v1/feedback", json=fields)  # type: ignore[no-any-return]
+
+    # -- reading
+    def health(self) -> dict[str, Any]:
+        return self._json("GET", "/healthz")  # type: ignore[no-any-return]
+
+    def ready(self) -> dict[str, Any]:
+        return self._json("GET", "/readyz")  # type: ignore[no-any-return]
+
+    def vocabulary(self) -> dict[str, Any]:
+        return self._json("GET", "/v1/vocabulary")  # type: ignore[no-any-return]
+
+    def sparql(self, query: str, accept: str = "application/sparql-results+json") -> Any:
+        """JSON results as a dict; other formats (CSV, Turtle…) as text."""
+        return self._do(_Requests.sparql(query, accept))
+
+    def versions(self, limit: int = 100) -> list[dict[str, Any]]:
+        return self._json("GET", "/v1/graph/versions", params={"limit": limit})["versions"]  # type: ignore[no-any-return]
+
+    def graph_version(self) -> int:
+        return int(self._json("GET", "/v1/graph")["version"])
+
+    def diff(self, since: int, until: int | None = None) -> dict[str, Any]:
+        params = {"since": since, **({"until": until} if until is not None else {})}
+        return self._json("GET", "/v1/graph/diff", params=params)  # type: ignore[no-any-return]
+
+    # -- editing (token with the editor role)
+    def update(self, update: str, *, if_match: int | None = None) -> WriteResult:
+        return self._do(_Requests.update(update, if_match))  # type: ignore[no-any-return]
+
+    def rollback(self, to: int, *, if_match: int | None = None) -> WriteResult:
+        return self._json("POST", "/v1/graph/rollback", json={"to": to}, headers=_if_match(if_match))  # type: ignore[no-any-return]
+
+    def put_rule(self, rule_id: str, label: str, query: str, *, comment: str | None = None, enabled: bool = True,
+                 if_match: int | None = None) -> WriteResult:
+        body = {"label": label, "query": query, "comment": comment, "enabled": enabled}
+        return self._json("PUT", f"/v1/rules/{rule_id}", json=body, headers=_if_match(if_match))  # type: ignore[no-any-return]
+
+    def delete_rule(self, rule_id: str, *, if_match: int | None = None) -> WriteResult:
+        return self._json("DELETE", f"/v1/rules/{rule_id}", headers=_if_match(if_match))  # type: ignore[no-any-return]
+
+    def add_condition_value(self, dimension: str, name: str, label: str | None = None, *, if_match: int | None = None) -> WriteResult:
+        return self._json("POST", f"/v1/conditions/{dimension}/values", json={"name": name, "label": label},  # type: ignore[no-any-return]
+                          headers=_if_match(if_match))
+
+    def patch_parameter(self, extractor: str, parameter: str, *, if_match: int | None = None, **fields: Any) -> WriteResult:
+        return self._json("PATCH", f"/v1/extractors/{extractor}/parameters/{parameter}", json=fields,  # type: ignore[no-any-return]
+                          headers=_if_match(if_match))
+
+    def put_extractor(self, name: str, turtle: str, *, if_match: int | None = None) -> WriteResult:
+        return self._json("PUT", f"/v1/extractors/{name}", content=turtle.encode(),  # type: ignore[no-any-return]
+                          headers={"Content-Type": "text/turtle", **_if_match(if_match)})
+
+    def put_program(self, name: str, text: str, *, if_match: int | None = None) -> WriteResult:
+        return self._json("PUT", f"/v1/programs/{name}", content=text.encode(),  # type: ignore[no-any-return]
+                          headers={"Content-Type": "text/plain", **_if_match(if_match)})
+
+
+class AsyncNfexClient:
+    """The same API, awaitable (``async with AsyncNfexClient(url) as c: await c.select(...)``)."""
+
+    def __init__(self, base_url: str, *, token: str | None = None, timeout: float = 30.0, **httpx_kwargs: Any) -> None:
+        headers = {"Authorization": f"Bearer {token}"} if token else {}
+        self.http = httpx.AsyncClient(base_url=base_url, timeout=timeout, headers=headers, **httpx_kwargs)
+
+    async def __aenter__(self) -> AsyncNfexClient:
+        return self
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.aclose()
+
+    async def aclose(self) -> None:
+        await self.http.aclose()
+
+    async def _do(self, call: Call) -> Any:
+        return _result(call, await self.http.request(call.method, call.path, **call.kwargs))
+
+    async def select(self, context: Context | None = None, frame: Any = None) -> Selection:
+        return await self._do(_Requests.select(context, frame))  # type: ignore[no-any-return]
+
+    async def open_session(self, context: Context | None = None, client: str | None = None) -> dict[str, Any]:
+        return await self._do(Call("POST", "/v1/sessions", {"json": {"context": dict(context or {}), "client": client}}))  # type: ignore[no-any-return]
+
+    async def session_frame(self, session_id: str, frame: Any, context: Context | None = None) -> Selection:
+        return await self._do(_Requests.session_frame(session_id, frame, context))  # type: ignore[no-any-return]
+
+    async def close_session(self, session_id: str) -> None:
+        await self._do(Call("DELETE", f"/v1/sessions/{session_id}", {}, "none"))
+
+    async def feedback(self, **fields: Any) -> WriteResult:
+        return await self._do(Call("POST", "/v1/feedback", {"json": fields}))  # type: ignore[no-any-return]
+
+    async def ready(self) -> dict[str, Any]:
+        return await self._do(Call("GET", "/readyz", {}))  # type: ignore[no-any-return]
+
+    async def vocabulary(self) -> dict[str, Any]:
+        return await self._do(Call("GET", "/v1/vocabulary", {}))  # type: ignore[no-any-return]
+
+    async def sparql(self, query: str, accept: str = "application/sparql-results+json") -> Any:
+        return await self._do(_Requests.sparql(query, accept))
+
+    async def update(self, update: str, *, if_match: int | None = None) -> WriteResult:
+        return await self._do(_Requests.update(update, if_match))  # type: ignore[no-any-return]
+
+    async def rollback(self, to: int, *, if_match: int | None = None) -> WriteResult:
+        return await self._do(Call("POST", "/v1/graph/rollback", {"json": {"to": to}, "headers": _if_match(if_match)}))  # type: ignore[no-any-return]

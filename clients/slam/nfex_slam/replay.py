@@ -1,0 +1,190 @@
+"""Replay a dataset sequence through the nFEX service, as a SLAM front end would use it.
+
+    nfex-slam-replay --service http://127.0.0.1:8000 --format kitti --path ../shared/data/kitti \\
+        --sequence 01 --out kitti01.tum [--window 50] [--context agent=car]
+
+Per frame, the VO (``nfex_core.vo.run_vo``) asks the service which extractor and parameters to run,
+through one session (``POST /v1/sessions/{id}/frames``: the service keeps the previous frame for the
+temporal metrics, as the in-process advisor does in ``nfex evaluate``). The frame goes as a lossless
+PNG, so the service scores exactly the pixels the in-process advisor would. After the run it reports
+one feedback per window (ATE over the window, frames with tracking lost, mean inliers/matches/
+keypoints, extraction time, under the configuration used on most of the window's frames), writes the
+estimated trajectory in TUM format and prints the ATE, computed as ``nfex evaluate`` computes it
+(``nfex_core.sweeps.cells.window_errors``; Sim(3)-aligned ATE where that module is absent). The extractor
+registry is built from the service's graph over its SPARQL endpoint, so both sides run the same
+extractors with the same parameter ranges.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from collections import Counter
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from nfex_client import NfexClient
+
+
+@dataclass
+class ServiceChooser:
+    """A VO chooser (``chooser(frame, history) -> (extractor, params)``) backed by a service session."""
+
+    client: NfexClient
+    session_id: str
+    selections: list[dict[str, Any]] = field(default_factory=list)
+
+    def __call__(self, frame: Any, history: list[Any]) -> tuple[str, dict[str, Any]]:
+        sel = self.client.session_frame(self.session_id, frame.image, context=dict(frame.context) or None)
+        self.selections.append({"frame": frame.index, "extractor": sel["extractor"], "params": sel["params"],
+                                "pruned": [p["extractor"] for p in sel["pruned"]]})
+        return sel["extractor"], dict(sel["params"])
+
+
+class _ServiceGraph:
+    """Just enough of a KnowledgeGraph (``select``, ``version``) to load the vocabulary over /sparql."""
+
+    def __init__(self, client: NfexClient, base_url: str) -> None:
+        from nfex_core.kg.backends import RemoteBackend
+        from nfex_core.namespaces import sparql_prefixes
+
+        self._backend = RemoteBackend(base_url.rstrip("/") + "/sparql")
+        self._prefixes = sparql_prefixes()
+        self.version = client.graph_version()
+
+    def select(self, query: str, *, prefixes: bool = True) -> Any:
+        return self._backend.select((self._prefixes if prefixes else "") + query)
+
+
+def service_registry(client: NfexClient, base_url: str) -> Any:
+    from nfex_core.kg.vocab import Vocabulary
+    from nfex_core.vision.registry import ExtractorRegistry
+
+    return ExtractorRegistry.from_vocabulary(Vocabulary.load(_ServiceGraph(client, base_url)))  # type: ignore[arg-type]
+
+
+def _ate(sequence: Any, result: Any) -> float | None:
+    try:
+        from nfex_core.sweeps.cells import window_errors
+    except ModuleNotFoundError:
+        from nfex_core.trajectory import Trajectory, ate, from_sequence
+
+        if sequence.poses is None:
+            return None
+        est = Trajectory(result.timestamps, result.poses)
+        return float(ate(from_sequence(sequence), est, align="sim3").rmse)
+    value, _ = window_errors(sequence, result)
+    return None if value is None else float(value)
+
+
+@dataclass
+class ReplayResult:
+    ate_rmse: float | None
+    failed: bool
+    frames: int
+    lost: int
+    trajectory: Path
+    selections: list[dict[str, Any]]
+    feedback: list[dict[str, Any]]
+
+
+def _window_feedback(sequence: Any, result: Any, start: int, stop: int) -> dict[str, Any]:
+    records = result.frames[start:stop]
+    counts = Counter((r.extractor, tuple(sorted(r.params.items()))) for r in records)
+    (extractor, params), _ = counts.most_common(1)[0]
+    fields: dict[str, Any] = {
+        "extractor": extractor, "params": dict(params), "window_start": records[0].index, "window_end": records[-1].index + 1,
+        "tracking_lost": sum(1 for r in records if r.lost), "mean_keypoints": float(np.mean([r.keypoints for r in records])),
+        "extraction_ms": float(np.mean([r.extraction_ms for r in records])),
+    }
+    pairs = records[1:] if start == 0 else records
+    if pairs:
+        fields["mean_matches"] = float(np.mean([r.matches for r in pairs]))
+        fields["mean_inliers"] = float(np.mean([r.inliers for r in pairs]))
+    if sequence.poses is not None and stop - start >= 3:
+        from nfex_core.trajectory import Trajectory, ate
+
+        gt = Trajectory(sequence.timestamps[start:stop], sequence.poses[start:stop])
+        est = Trajectory(result.timestamps[start:stop], result.poses[start:stop])
+        if not any(r.lost for r in records):
+            fields["ate_rmse"] = float(ate(gt, est, align="sim3").rmse)
+    fields["tracking_failed"] = fields["tracking_lost"] > result.max_lost_fraction * max(1, len(pairs))
+    return fields
+
+
+def replay(
+    base_url: str,
+    sequence: Any,
+    out: Path,
+    *,
+    context: Mapping[str, str] | None = None,
+    window: int | None = None,
+    frames: int | None = None,
+    report: bool = True,
+    client: NfexClient | None = None,
+) -> ReplayResult:
+    """Run the VO over ``sequence`` through a session; report feedback per window; write TUM; return ATE."""
+    import cv2
+    from nfex_core.vo import run_vo
+
+    from nfex_core.trajectory import Trajectory, write_tum
+
+    own = client is None
+    client = client or NfexClient(base_url)
+    try:
+        registry = service_registry(client, base_url)
+        ctx = {**{k: v for k, v in sequence.context.items() if v}, **dict(context or {})}
+        session = client.open_session(ctx, client="nfex-slam-replay")
+        chooser = ServiceChooser(client, session["id"])
+        cv2.setRNGSeed(0)  # RANSAC's draw, as `nfex evaluate` seeds its first run
+        try:
+            result = run_vo(sequence, chooser, registry=registry, stop=frames)
+            feedback: list[dict[str, Any]] = []
+            n = len(result.frames)
+            size = window or n
+            if report:
+                for start in range(0, n, size):
+                    fields = _window_feedback(sequence, result, start, min(n, start + size))
+                    fields.update(sequence=sequence.key, dataset=sequence.dataset, session_id=session["id"])
+                    feedback.append({**fields, "iri": client.feedback(**fields)["iri"]})
+        finally:
+            client.close_session(session["id"])
+        write_tum(out, Trajectory(result.timestamps, result.poses))
+        ate_rmse = None if result.failed else _ate(sequence, result)
+        return ReplayResult(ate_rmse, result.failed, n, result.lost_count, out, chooser.selections, feedback)
+    finally:
+        if own:
+            client.close()
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--service", default="http://127.0.0.1:8000")
+    ap.add_argument("--format", required=True, choices=["kitti", "euroc", "tum", "handheld"])
+    ap.add_argument("--path", required=True, type=Path)
+    ap.add_argument("--sequence")
+    ap.add_argument("--out", required=True, type=Path, help="estimated trajectory, TUM format")
+    ap.add_argument("--window", type=int, help="frames per feedback window (default: the whole run)")
+    ap.add_argument("--frames", type=int, help="replay only the first N frames")
+    ap.add_argument("--context", action="append", default=[], metavar="DIM=VALUE")
+    ap.add_argument("--no-feedback", action="store_true")
+    args = ap.parse_args(argv)
+
+    from nfex_core.datasets import open_sequence
+
+    context = dict(item.split("=", 1) for item in args.context)
+    seq = open_sequence(args.path, args.format, args.sequence)
+    res = replay(args.service, seq, args.out, context=context, window=args.window, frames=args.frames,
+                 report=not args.no_feedback)
+    used = Counter(s["extractor"] for s in res.selections)
+    print(f"{seq.key}: {res.frames} frames, {res.lost} lost, extractors {dict(used)}, trajectory {res.trajectory}")
+    for fb in res.feedback:
+        print(f"feedback {fb['window_start']}-{fb['window_end']}: {fb['extractor']} ate={fb.get('ate_rmse')} -> {fb['iri']}")
+    print("ATE RMSE: failed" if res.ate_rmse is None else f"ATE RMSE: {res.ate_rmse:.6f} m")
+    return 1 if res.failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,148 @@
+"""A client's report of what a selection achieved, as a ``nfex:Measurement`` with provenance.
+
+The measurement has the shape of the sweeps' measurements (rules/shapes/integrity.ttl,
+MeasurementShape): a ``sosa:Observation`` whose ``sosa:usedProcedure`` is the configuration (α, Θ —
+the full Θ, defaults filled in, so equal configurations share one IRI), made on a ``nfex:Sequence``
+under the context's condition values, ``prov:wasGeneratedBy`` a ``nfex:Run`` (one per session, or per
+client and day) that ``prov:wasAssociatedWith`` the client as a ``prov:SoftwareAgent``. The
+measurement-based pruning rules (rules/pruning/measured-*.rq) count it from the commit on.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+import uuid
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from typing import Any
+
+import rdflib
+from rdflib.namespace import PROV, RDF, RDFS, SOSA, XSD
+from rdflib.term import Literal, URIRef
+
+from . import __version__
+from .errors import BadInput
+from .kg.vocab import Value, Vocabulary
+from .namespaces import NFEX
+
+
+@dataclass(frozen=True)
+class Feedback:
+    extractor: str
+    params: dict[str, Any] = field(default_factory=dict)
+    context: dict[str, str] = field(default_factory=dict)
+    sequence: str = "client-stream"
+    dataset: str | None = None
+    client: str | None = None
+    session: str | None = None
+    window_start: int | None = None
+    window_end: int | None = None
+    frames: int | None = None
+    ate_rmse: float | None = None
+    rpe_rmse: float | None = None
+    tracking_lost: int | None = None
+    tracking_failed: bool | None = None
+    mean_inliers: float | None = None
+    mean_matches: float | None = None
+    mean_keypoints: float | None = None
+    extraction_ms: float | None = None
+    matching_ms: float | None = None
+    width: int | None = None
+    height: int | None = None
+
+
+def slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9]+", "_", text).strip("_") or "x"
+
+
+def run_iri(fb: Feedback, now: datetime) -> URIRef:
+    """One run per session, or per client and UTC day."""
+    if fb.session:
+        return NFEX[f"run_session_{slug(fb.session)}"]
+    return NFEX[f"run_feedback_{slug(fb.client or 'anonymous')}_{now:%Y%m%d}"]
+
+
+def configuration_iri(extractor: str, theta: dict[str, Value]) -> URIRef:
+    digest = hashlib.sha1(json.dumps(theta, sort_keys=True).encode()).hexdigest()[:12]
+    return NFEX[f"cfg_{slug(extractor)}_{digest}"]
+
+
+def configuration_graph(vocab: Vocabulary, extractor: str, params: dict[str, Any]) -> tuple[rdflib.Graph, URIRef]:
+    """The configuration (α, full Θ) as triples; parameters are checked against the graph's ranges."""
+    spec = vocab.extractor(extractor)
+    theta = spec.resolve(params)
+    cfg = configuration_iri(spec.name, theta)
+    g = rdflib.Graph()
+    g.add((cfg, RDF.type, NFEX.Configuration))
+    g.add((cfg, NFEX.ofExtractor, spec.iri))
+    for name, value in sorted(theta.items()):
+        p = spec.parameter(name)
+        setting = URIRef(f"{cfg}_{slug(name)}")
+        g.add((cfg, NFEX.hasSetting, setting))
+        g.add((setting, RDF.type, NFEX.ParameterSetting))
+        g.add((setting, NFEX.parameter, p.iri))
+        g.add((setting, NFEX.value, p.literal(value)))
+    return g, cfg
+
+
+def measurement_graph(vocab: Vocabulary, fb: Feedback, *, run_exists: bool = False, now: datetime | None = None) -> tuple[rdflib.Graph, URIRef]:
+    """The Measurement for ``fb`` with its configuration, sequence, run and agent."""
+    now = now or datetime.now(UTC)
+    context = vocab.check_context(fb.context)
+    frames = fb.frames
+    if frames is None and fb.window_start is not None and fb.window_end is not None:
+        frames = fb.window_end - fb.window_start
+    if fb.window_start is not None and fb.window_end is not None and fb.window_end <= fb.window_start:
+        raise BadInput(f"window_end ({fb.window_end}) must be greater than window_start ({fb.window_start})")
+    if fb.tracking_lost is not None and frames is None:
+        raise BadInput("tracking_lost needs the window's frame count (frames, or window_start and window_end)")
+    if fb.tracking_lost is not None and frames is not None and fb.tracking_lost > frames:
+        raise BadInput(f"tracking_lost ({fb.tracking_lost}) exceeds the window's {frames} frames")
+    measured = [fb.ate_rmse, fb.rpe_rmse, fb.tracking_lost, fb.tracking_failed, fb.mean_inliers, fb.mean_matches]
+    if all(v is None for v in measured):
+        raise BadInput("feedback must report at least one of ate_rmse, rpe_rmse, tracking_lost, tracking_failed, mean_inliers, mean_matches")
+
+    g, cfg = configuration_graph(vocab, fb.extractor, fb.params)
+    m = NFEX[f"measurement_{uuid.uuid4().hex}"]
+    seq = NFEX[f"sequence_{slug(fb.sequence)}"]
+    agent = NFEX[f"client_{slug(fb.client or 'anonymous')}"]
+    run = run_iri(fb, now)
+
+    g.add((seq, RDF.type, NFEX.Sequence))
+    g.add((seq, RDFS.label, Literal(fb.sequence)))
+    if fb.dataset:
+        ds = NFEX[f"dataset_{slug(fb.dataset)}"]
+        g.add((ds, RDF.type, NFEX.Dataset))
+        g.add((ds, RDFS.label, Literal(fb.dataset)))
+        g.add((seq, NFEX.inDataset, ds))
+    g.add((agent, RDF.type, PROV.SoftwareAgent))
+    g.add((agent, RDFS.label, Literal(fb.client or "anonymous client")))
+    if not run_exists:
+        g.add((run, RDF.type, NFEX.Run))
+        g.add((run, RDFS.label, Literal(f"client feedback ({'session ' + fb.session if fb.session else fb.client or 'anonymous'})")))
+        g.add((run, PROV.startedAtTime, Literal(now.isoformat(), datatype=XSD.dateTime)))
+        g.add((run, NFEX.codeVersion, Literal(f"nfex {__version__}")))
+        g.add((run, PROV.wasAssociatedWith, agent))
+
+    g.add((m, RDF.type, NFEX.Measurement))
+    g.add((m, SOSA.usedProcedure, cfg))
+    g.add((m, NFEX.sequence, seq))
+    g.add((m, PROV.wasGeneratedBy, run))
+    g.add((m, PROV.wasAttributedTo, agent))
+    g.add((m, SOSA.resultTime, Literal(now.isoformat(), datatype=XSD.dateTime)))
+    for dim, value in context.items():
+        g.add((m, NFEX.underCondition, vocab.condition_value(dim, value).iri))
+    ints: dict[str, int | None] = {"windowStart": fb.window_start, "windowEnd": fb.window_end, "frameCount": frames,
+            "trackingLost": fb.tracking_lost, "frameWidth": fb.width, "frameHeight": fb.height}
+    doubles: dict[str, float | None] = {"ateRmse": fb.ate_rmse, "rpeRmse": fb.rpe_rmse, "meanInliers": fb.mean_inliers, "meanMatches": fb.mean_matches,
+               "meanKeypoints": fb.mean_keypoints, "extractionMs": fb.extraction_ms, "matchingMs": fb.matching_ms}
+    for name, v in ints.items():
+        if v is not None:
+            g.add((m, NFEX[name], Literal(int(v), datatype=XSD.integer)))
+    for name, x in doubles.items():
+        if x is not None:
+            g.add((m, NFEX[name], Literal(float(x), datatype=XSD.double)))
+    if fb.tracking_failed is not None:
+        g.add((m, NFEX.trackingFailed, Literal(bool(fb.tracking_failed))))
+    return g, m

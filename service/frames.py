@@ -1,0 +1,108 @@
+"""Reading a selection request (multipart frame + context, or JSON context) and running the advisor."""
+from __future__ import annotations
+
+import json
+import time
+from typing import Any
+
+import numpy as np
+from fastapi import Request
+from pydantic import ValidationError
+from starlette.datastructures import UploadFile
+
+from nfex_core.advisor import Advisor, FrameState, Selection
+from nfex_core.errors import BadInput, NfexError
+
+from .config import Settings
+from .images import PayloadTooLarge, UnsupportedMediaType, decode_frame
+from .schemas import SelectRequest
+
+
+class NotImplementedFeature(NfexError):
+    status = 501
+    type = "not-implemented"
+    title = "Not implemented in this build"
+    exit_code = 3
+
+
+def parse_context(text: str | bytes | None) -> dict[str, str | None]:
+    if text is None or (isinstance(text, str | bytes) and not text.strip()):
+        return {}
+    try:
+        data = json.loads(text)
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise BadInput(f"context is not valid JSON: {e}") from e
+    if isinstance(data, dict) and set(data) == {"context"} and isinstance(data["context"], dict):
+        data = data["context"]
+    if not isinstance(data, dict) or not all(isinstance(v, str | type(None)) for v in data.values()):
+        raise BadInput('context must be a JSON object of condition dimension → value, e.g. {"light": "dark"}')
+    return data
+
+
+async def read_select(request: Request, settings: Settings, *, frame_required: bool = False) -> tuple[dict[str, str | None], np.ndarray | None]:
+    """(context, frame or None) from a JSON body or a multipart form with ``frame`` and ``context``."""
+    media = request.headers.get("content-type", "").split(";")[0].strip().lower()
+    if media == "application/json":
+        body = await request.body()
+        try:
+            req = SelectRequest.model_validate_json(body or b"{}")
+        except ValidationError as e:
+            first = e.errors()[0]
+            raise BadInput(f"invalid JSON body: {'.'.join(str(x) for x in first['loc'])}: {first['msg']}",
+                           errors=[{"loc": list(x["loc"]), "msg": x["msg"]} for x in e.errors()]) from None
+        if frame_required:
+            raise BadInput("a stream frame needs an image: send multipart/form-data with a 'frame' part")
+        return req.context, None
+    if media == "multipart/form-data":
+        try:
+            form = await request.form(max_files=1, max_fields=4, max_part_size=settings.max_image_bytes + 1)
+        except PayloadTooLarge:
+            raise
+        except Exception as e:  # python-multipart / starlette raise several types for broken forms
+            if "exceed" in str(e).lower() or "too large" in str(e).lower():
+                raise PayloadTooLarge(f"a form part is too large: {e}", limit=settings.max_image_bytes) from e
+            raise BadInput(f"the multipart form cannot be read: {e}") from e
+        try:
+            unknown = set(form.keys()) - {"frame", "context"}
+            if unknown:
+                raise BadInput(f"unknown form fields {sorted(unknown)}; send 'frame' (PNG/JPEG) and 'context' (JSON)")
+            ctx_part = form.get("context")
+            ctx_text: str | bytes | None = await ctx_part.read() if isinstance(ctx_part, UploadFile) else ctx_part
+            context = parse_context(ctx_text)
+            part = form.get("frame")
+            if part is None:
+                if frame_required:
+                    raise BadInput("no 'frame' part in the form")
+                return context, None
+            if not isinstance(part, UploadFile):
+                raise BadInput("'frame' must be a file part (PNG or JPEG)")
+            data = await part.read(settings.max_image_bytes + 1)
+            image = decode_frame(data, part.content_type, max_bytes=settings.max_image_bytes, max_pixels=settings.max_pixels)
+            return context, image
+        finally:
+            await form.close()
+    raise UnsupportedMediaType(
+        f"send application/json ({{\"context\": …}}) or multipart/form-data (frame + context), not {media or 'nothing'!r}"
+    )
+
+
+def snapshot_is_fresh(advisor: Advisor) -> bool:
+    """Whether ``advisor.select`` will answer from its current snapshot (no store round trip, no rule
+    compilation), so a context-only request may run on the event loop instead of a worker thread."""
+    snap = getattr(advisor, "_snapshot", None)
+    return (
+        snap is not None
+        and not getattr(advisor, "_dirty", True)
+        and time.monotonic() - snap.taken_at < getattr(advisor, "poll_interval_s", 0.0)
+    )
+
+
+def run_advisor(advisor: Advisor, context: dict[str, Any], frame: np.ndarray | None, previous: FrameState | None = None) -> Selection:
+    try:
+        return advisor.select(context, frame, previous)
+    except ModuleNotFoundError as e:
+        if e.name and e.name.startswith("nfex_core.vision"):
+            raise NotImplementedFeature(
+                f"scoring a frame needs {e.name}, which this build lacks; send the context alone (JSON) for now"
+            ) from e
+        raise

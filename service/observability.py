@@ -1,0 +1,126 @@
+"""Structured (JSON) logs, Prometheus metrics and the request-size limit, as plain ASGI middleware."""
+from __future__ import annotations
+
+import json
+import logging
+import sys
+import time
+from collections.abc import Awaitable, Callable, MutableMapping
+from typing import Any
+
+from prometheus_client import CollectorRegistry, Counter, Gauge, Histogram
+
+from nfex_core.errors import PROBLEM_BASE
+
+Scope = MutableMapping[str, Any]
+Message = MutableMapping[str, Any]
+Receive = Callable[[], Awaitable[Message]]
+Send = Callable[[Message], Awaitable[None]]
+ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
+log = logging.getLogger("nfex.access")
+
+
+class JsonFormatter(logging.Formatter):
+    def format(self, record: logging.LogRecord) -> str:
+        doc: dict[str, Any] = {
+            "time": self.formatTime(record, "%Y-%m-%dT%H:%M:%S") + f".{int(record.msecs):03d}Z",
+            "level": record.levelname.lower(),
+            "logger": record.name,
+            "message": record.getMessage(),
+        }
+        doc.update(getattr(record, "fields", {}))
+        if record.exc_info:
+            doc["exception"] = self.formatException(record.exc_info)
+        return json.dumps(doc, default=str)
+
+
+def setup_logging(level: str, as_json: bool) -> None:
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(JsonFormatter() if as_json else logging.Formatter("%(asctime)s %(levelname)s %(name)s %(message)s"))
+    logging.Formatter.converter = time.gmtime
+    for name in ("nfex", "uvicorn", "uvicorn.error"):
+        lg = logging.getLogger(name)
+        lg.handlers = [handler]
+        lg.propagate = False
+        lg.setLevel(level.upper())
+    logging.getLogger("uvicorn.access").disabled = True  # the middleware logs each request once, as JSON
+
+
+class Metrics:
+    def __init__(self) -> None:
+        self.registry = CollectorRegistry()
+        self.requests = Counter("nfex_http_requests_total", "HTTP requests", ["method", "route", "status"], registry=self.registry)
+        self.latency = Histogram(
+            "nfex_http_request_seconds", "HTTP request latency", ["method", "route"], registry=self.registry,
+            buckets=(0.0005, 0.001, 0.002, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1, 2.5, 5, 10),
+        )
+        self.sparql_queries = Counter("nfex_sparql_queries_total", "SPARQL queries answered", ["form"], registry=self.registry)
+        self.sessions = Gauge("nfex_sessions", "Open sessions", registry=self.registry)
+        self.session_bytes = Gauge("nfex_session_state_bytes", "Memory held by sessions' previous frames", registry=self.registry)
+        self.graph_version = Gauge("nfex_graph_version", "Graph version at head", registry=self.registry)
+
+
+def _problem_bytes(status: int, slug: str, title: str, detail: str, **extra: Any) -> bytes:
+    return json.dumps({"type": PROBLEM_BASE + slug, "title": title, "status": status, "detail": detail, **extra}).encode()
+
+
+class ServiceMiddleware:
+    """Per request: refuse bodies over ``max_body_bytes`` (413), count and time it, log one JSON line."""
+
+    def __init__(self, app: ASGIApp, *, metrics: Metrics, max_body_bytes: int) -> None:
+        self.app = app
+        self.metrics = metrics
+        self.max_body_bytes = max_body_bytes
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        t0 = time.perf_counter()
+        status = {"code": 500}
+        limit = self.max_body_bytes
+        headers = dict(scope.get("headers") or [])
+        length = headers.get(b"content-length")
+
+        async def send_wrapper(message: Message) -> None:
+            if message["type"] == "http.response.start":
+                status["code"] = message["status"]
+            await send(message)
+
+        async def reject() -> None:
+            body = _problem_bytes(413, "payload-too-large", "Payload too large",
+                                  f"the request body exceeds the limit of {limit} bytes", limit=limit)
+            await send_wrapper({"type": "http.response.start", "status": 413,
+                                "headers": [(b"content-type", b"application/problem+json"), (b"content-length", str(len(body)).encode()),
+                                            (b"connection", b"close")]})
+            await send({"type": "http.response.body", "body": body})
+
+        try:
+            if length is not None and (not length.isdigit() or int(length) > limit):
+                await reject()
+                return
+            seen = {"n": 0}
+
+            async def limited_receive() -> Message:
+                message = await receive()
+                if message["type"] == "http.request":
+                    seen["n"] += len(message.get("body", b""))
+                    if seen["n"] > limit:
+                        from .images import PayloadTooLarge
+
+                        raise PayloadTooLarge(f"the request body exceeds the limit of {limit} bytes", limit=limit)
+                return message
+
+            await self.app(scope, limited_receive, send_wrapper)
+        finally:
+            elapsed = time.perf_counter() - t0
+            route = scope.get("route")
+            name = getattr(route, "path", None) or "unmatched"
+            method = scope.get("method", "")
+            self.metrics.requests.labels(method, name, str(status["code"])).inc()
+            self.metrics.latency.labels(method, name).observe(elapsed)
+            if log.isEnabledFor(logging.INFO):
+                client = scope.get("client") or ("", 0)
+                log.info("request", extra={"fields": {
+                    "method": method, "path": scope.get("path"), "route": name, "status": status["code"],
+                    "ms": round(elapsed * 1000, 3), "client": client[0]}})

@@ -1,0 +1,92 @@
+"""DSL programs (``nfex:Program`` and their statements), through ``nfex_core.rules.dsl.programs``.
+
+The DSL is imported lazily: a build without it answers 501 on these routes and serves everything else.
+PUT parses, checks (names against the graph; errors carry line and column) and compiles the text, then
+replaces the program's statements as one SHACL-checked transaction (docs/dsl.md).
+"""
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+from fastapi import APIRouter, Request, Response
+from fastapi.concurrency import run_in_threadpool
+
+from nfex_core.errors import BadInput, NotFound
+
+from ..deps import EditorDep, IfMatchDep, KGDep
+from ..editing import check_name
+from ..frames import NotImplementedFeature
+from ..images import UnsupportedMediaType
+from ..schemas import PROBLEM_RESPONSES, WriteResult
+
+router = APIRouter(prefix="/v1/programs", tags=["editing: programs"], responses=PROBLEM_RESPONSES)
+PROGRAM_EXAMPLE = 'adjust ORB.nfeatures by 1.5 when light is dark because "dark frames have fewer corners"\n'
+
+
+def _dsl() -> Any:
+    """``nfex_core.rules.dsl.programs``, or 501 when this build lacks the DSL."""
+    try:
+        return importlib.import_module("nfex_core.rules.dsl.programs")
+    except ModuleNotFoundError as e:
+        if e.name and "nfex_core.rules.dsl.programs".startswith(e.name):
+            raise NotImplementedFeature("the rules DSL (nfex_core.rules.dsl) is not part of this build") from e
+        raise
+
+
+def _info(p: Any) -> dict[str, Any]:
+    return {"name": p.name, "iri": p.iri, "statements": p.statements, "source": p.source}
+
+
+@router.get("", summary="Every DSL program in the graph")
+def list_programs(kg: KGDep) -> dict[str, Any]:
+    return {"graph_version": kg.version, "programs": [_info(p) for p in _dsl().programs(kg)]}
+
+
+@router.get("/{name}", summary="One program: its statements as DSL text, read back from the graph")
+def get_program(name: str, kg: KGDep) -> dict[str, Any]:
+    dsl = _dsl()
+    found = [p for p in dsl.programs(kg) if p.name == name]
+    if not found:
+        raise NotFound(f"no program {name!r}; GET /v1/programs lists them")
+    from nfex_core.rules.dsl import render
+
+    return {**_info(found[0]), "text": render(dsl.show(kg, name))}
+
+
+@router.put(
+    "/{name}",
+    summary="Create or replace a program from DSL text (text/plain)",
+    openapi_extra={"requestBody": {"required": True, "content": {"text/plain": {"schema": {"type": "string"}, "example": PROGRAM_EXAMPLE}}}},
+)
+async def put_program(name: str, request: Request, kg: KGDep, token: EditorDep, expected: IfMatchDep) -> Response:
+    check_name("program", name)
+    media = request.headers.get("content-type", "").split(";")[0].strip().lower()
+    if media not in ("text/plain", "text/x-nfex"):
+        raise UnsupportedMediaType(f"send the program as text/plain, not {media or 'nothing'!r}")
+    try:
+        text = (await request.body()).decode("utf-8")
+    except UnicodeDecodeError as e:
+        raise BadInput(f"the program is not UTF-8: {e}") from e
+    dsl = _dsl()
+
+    def work() -> tuple[bool, Any]:
+        existed = any(p.name == name for p in dsl.programs(kg))
+        _, graph = dsl.compile_text(text, kg.vocabulary(), name=name, source=f"api:{name}")
+        return existed, dsl.apply(kg, graph, name, author=token.name, message=f"PUT program {name}", expected_version=expected)
+
+    existed, result = await run_in_threadpool(work)
+    return WriteResult.of(result).response(status=200 if existed else 201)
+
+
+@router.delete("/{name}", summary="Remove a program and its statements")
+def delete_program(name: str, kg: KGDep, token: EditorDep, expected: IfMatchDep) -> Response:
+    dsl = _dsl()
+    if not any(p.name == name for p in dsl.programs(kg)):
+        raise NotFound(f"no program {name!r}")
+    if expected is not None and expected != kg.version:
+        from nfex_core.errors import PreconditionFailed
+
+        raise PreconditionFailed(f"the graph is at version {kg.version}, not {expected}; re-read and retry", current_version=kg.version)
+    result = dsl.remove(kg, name, author=token.name, message=f"DELETE program {name}")
+    return WriteResult.of(result).response()

@@ -1,0 +1,51 @@
+"""``POST /v1/select``: a frame and/or a context in, the advisor's Selection out."""
+from __future__ import annotations
+
+from typing import Any
+
+from fastapi import APIRouter, Request
+from fastapi.concurrency import run_in_threadpool
+
+from ..deps import AdvisorDep, SettingsDep
+from ..frames import read_select, run_advisor, snapshot_is_fresh
+from ..schemas import CONTEXT_EXAMPLE, PROBLEM_RESPONSES
+
+router = APIRouter(prefix="/v1", tags=["selection"])
+
+SELECT_BODY = {
+    "requestBody": {
+        "required": True,
+        "content": {
+            "application/json": {
+                "schema": {"$ref": "#/components/schemas/SelectRequest"},
+                "example": {"context": CONTEXT_EXAMPLE},
+            },
+            "multipart/form-data": {
+                "schema": {
+                    "type": "object",
+                    "properties": {
+                        "frame": {"type": "string", "format": "binary", "description": "PNG or JPEG, grey or colour"},
+                        "context": {"type": "string", "description": "JSON object: dimension → value", "example": '{"agent": "car"}'},
+                    },
+                }
+            },
+        },
+    }
+}
+
+
+@router.post(
+    "/select",
+    summary="Which extractor to run, with which parameters, and why",
+    description="Send the context alone as JSON, or a frame (multipart `frame`) with an optional `context` "
+    "part. Unknown condition values are rejected (422) with the values the graph allows.",
+    openapi_extra=SELECT_BODY,
+    responses=PROBLEM_RESPONSES,
+)
+async def select(request: Request, advisor: AdvisorDep, settings: SettingsDep) -> dict[str, Any]:
+    context, frame = await read_select(request, settings)
+    if frame is None and snapshot_is_fresh(advisor):  # microseconds: a table lookup, not worth a thread hop
+        selection = run_advisor(advisor, context, None)
+    else:
+        selection = await run_in_threadpool(run_advisor, advisor, context, frame)
+    return selection.as_dict()

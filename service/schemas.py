@@ -1,0 +1,159 @@
+"""Pydantic models at the HTTP edge: requests, responses and their OpenAPI examples."""
+from __future__ import annotations
+
+from typing import Any
+
+from fastapi.responses import JSONResponse
+from pydantic import BaseModel, ConfigDict, Field
+
+from nfex_core.kg import CommitResult
+
+CONTEXT_EXAMPLE = {"agent": "car", "motion": "fast", "scene": "outdoor", "light": "bright"}
+
+
+class SelectRequest(BaseModel):
+    model_config = ConfigDict(extra="forbid", json_schema_extra={"examples": [{"context": CONTEXT_EXAMPLE}]})
+
+    context: dict[str, str | None] = Field(
+        default_factory=dict, description="Condition dimension → value; names and values come from GET /v1/vocabulary."
+    )
+
+
+class SessionCreate(BaseModel):
+    model_config = ConfigDict(
+        extra="forbid", json_schema_extra={"examples": [{"context": {"agent": "car", "scene": "outdoor"}, "client": "kitti-replay"}]}
+    )
+
+    context: dict[str, str | None] = Field(default_factory=dict, description="Context that holds for the whole stream.")
+    client: str | None = Field(None, max_length=200, description="Who streams (recorded as the feedback's agent).")
+
+
+class FeedbackRequest(BaseModel):
+    """What a client measured with a selection over a window of frames; becomes a nfex:Measurement."""
+
+    model_config = ConfigDict(
+        extra="forbid",
+        json_schema_extra={
+            "examples": [
+                {
+                    "extractor": "ORB",
+                    "params": {"nfeatures": 2000},
+                    "context": {"agent": "car", "light": "bright"},
+                    "sequence": "kitti/01",
+                    "window_start": 0,
+                    "window_end": 100,
+                    "ate_rmse": 1.7,
+                    "tracking_lost": 3,
+                    "mean_inliers": 180.5,
+                }
+            ]
+        },
+    )
+
+    extractor: str = Field(..., description="α the client ran (usually the selection's extractor).")
+    params: dict[str, Any] = Field(default_factory=dict, description="Θ it ran with (OpenCV names); defaults fill the rest.")
+    context: dict[str, str | None] = Field(default_factory=dict)
+    session_id: str | None = Field(None, description="The session the frames came from; its context fills gaps.")
+    sequence: str = Field("client-stream", min_length=1, max_length=200, description="Sequence name, e.g. kitti/01.")
+    dataset: str | None = Field(None, max_length=200)
+    client: str | None = Field(None, max_length=200)
+    window_start: int | None = Field(None, ge=0)
+    window_end: int | None = Field(None, ge=1)
+    frames: int | None = Field(None, ge=1, description="Frames in the window (default window_end - window_start).")
+    ate_rmse: float | None = Field(None, ge=0, description="ATE RMSE over the window, metres.")
+    rpe_rmse: float | None = Field(None, ge=0)
+    tracking_lost: int | None = Field(None, ge=0, description="Frames on which tracking was lost.")
+    tracking_failed: bool | None = None
+    mean_inliers: float | None = Field(None, ge=0)
+    mean_matches: float | None = Field(None, ge=0)
+    mean_keypoints: float | None = Field(None, ge=0)
+    extraction_ms: float | None = Field(None, ge=0)
+    matching_ms: float | None = Field(None, ge=0)
+    width: int | None = Field(None, ge=1)
+    height: int | None = Field(None, ge=1)
+
+
+class WriteResult(BaseModel):
+    version: int = Field(..., description="The graph version at head after the write (the new ETag).")
+    changed: bool
+    added: int = 0
+    removed: int = 0
+    iri: str | None = None
+
+    @classmethod
+    def of(cls, result: CommitResult, iri: str | None = None) -> WriteResult:
+        return cls(version=result.version, changed=result.changed, added=result.added, removed=result.removed, iri=iri)
+
+    def response(self, status: int = 200) -> JSONResponse:
+        return JSONResponse(self.model_dump(), status_code=status, headers={"ETag": f'"{self.version}"'})
+
+
+class ConditionValueIn(BaseModel):
+    model_config = ConfigDict(extra="forbid", json_schema_extra={"examples": [{"name": "dusk", "label": "dusk", "comment": "Low sun."}]})
+
+    name: str = Field(..., description="The token clients send (lower case).")
+    label: str | None = None
+    comment: str | None = None
+
+
+class ParameterPatch(BaseModel):
+    model_config = ConfigDict(extra="forbid", json_schema_extra={"examples": [{"default": 1500, "max": 8000}]})
+
+    default: float | int | bool | None = None
+    min: float | int | None = None
+    max: float | int | None = None
+    tunable: bool | None = None
+    label: str | None = None
+    comment: str | None = None
+
+
+class RuleIn(BaseModel):
+    model_config = ConfigDict(
+        extra="forbid",
+        json_schema_extra={
+            "examples": [
+                {
+                    "label": "No SIFT in the dark",
+                    "query": "SELECT ?extractor ?reason WHERE { FILTER (?light = nfex:light_dark) "
+                    "BIND (nfex:SIFT AS ?extractor) BIND (\"too slow in the dark\" AS ?reason) }",
+                }
+            ]
+        },
+    )
+
+    label: str = Field(..., min_length=1)
+    query: str = Field(..., min_length=1, description="SELECT ?extractor ?reason; context variables ?agent ?light …")
+    comment: str | None = None
+    enabled: bool = True
+
+
+class RollbackIn(BaseModel):
+    model_config = ConfigDict(extra="forbid", json_schema_extra={"examples": [{"to": 1}]})
+
+    to: int = Field(..., ge=0)
+
+
+class ProblemDoc(BaseModel):
+    """RFC 9457 problem details; extra members (allowed, violations, limit…) depend on the type."""
+
+    model_config = ConfigDict(extra="allow")
+
+    type: str
+    title: str
+    status: int
+    detail: str
+
+
+PROBLEM_RESPONSES: dict[int | str, dict[str, Any]] = {
+    code: {"model": ProblemDoc, "content": {"application/problem+json": {}}, "description": text}
+    for code, text in [
+        (400, "Bad input"),
+        (401, "No or invalid bearer token"),
+        (404, "Not found"),
+        (412, "If-Match names a graph version that is no longer the head"),
+        (413, "Body, frame or pixel count over the limit"),
+        (415, "Unsupported media type"),
+        (422, "Unknown names (with the allowed values) or a SHACL violation (with the report)"),
+        (503, "Store unavailable or a query limit exceeded"),
+    ]
+}

@@ -1,0 +1,70 @@
+"""POST /v1/feedback: a Measurement with provenance, SHACL-checked, counted by the measured pruning rules."""
+from __future__ import annotations
+
+import httpx
+import pytest
+
+from .conftest import Service, assert_problem
+
+TRACKING_LOSS_RULE = "https://w3id.org/nfex#rule_measured_tracking_loss"  # rules/pruning/measured-tracking-loss.rq
+
+
+def pruned(service: Service, context: dict[str, str]) -> dict[str, list[dict]]:  # type: ignore[type-arg]
+    sel = httpx.post(service.url + "/v1/select", json={"context": context}).json()
+    return {p["extractor"]: p["because"] for p in sel["pruned"]}
+
+
+def test_feedback_becomes_a_measurement_with_provenance(service: Service) -> None:
+    before = service.version()
+    r = httpx.post(service.url + "/v1/feedback", json={
+        "extractor": "ORB", "params": {"nfeatures": 1500}, "context": {"agent": "car", "scene": "outdoor"},
+        "sequence": "kitti/01", "dataset": "KITTI odometry", "client": "pytest", "window_start": 0, "window_end": 50,
+        "ate_rmse": 1.25, "rpe_rmse": 0.05, "tracking_lost": 2, "mean_inliers": 150.0, "extraction_ms": 4.5})
+    assert r.status_code == 201, r.text
+    body = r.json()
+    assert body["version"] == before + 1 and r.headers["etag"] == f'"{before + 1}"'
+    q = f"""SELECT ?ate ?frames ?x ?nf ?run ?agent ?seq ?cond WHERE {{
+        <{body['iri']}> a nfex:Measurement ; a ?t ; nfex:ateRmse ?ate ; nfex:frameCount ?frames ; nfex:sequence ?seq ;
+            sosa:usedProcedure ?cfg ; prov:wasGeneratedBy ?run ; prov:wasAttributedTo ?agent ; nfex:underCondition ?cond .
+        ?cfg nfex:ofExtractor ?x ; nfex:hasSetting [ nfex:parameter nfex:ORB_nfeatures ; nfex:value ?nf ] .
+        ?run a nfex:Run ; prov:wasAssociatedWith ?agent . ?agent a prov:SoftwareAgent . ?seq a nfex:Sequence }}"""
+    rows = httpx.get(service.url + "/sparql", params={"query": q}).json()["results"]["bindings"]
+    assert {r["cond"]["value"].rsplit("#", 1)[1] for r in rows} == {"agent_car", "scene_outdoor"}
+    row = rows[0]
+    assert float(row["ate"]["value"]) == 1.25 and int(row["frames"]["value"]) == 50 and int(row["nf"]["value"]) == 1500
+    assert row["x"]["value"].endswith("#ORB")
+
+
+@pytest.mark.parametrize("body,status", [
+    ({"extractor": "FAST9", "ate_rmse": 1.0}, 422),
+    ({"extractor": "ORB", "params": {"nfeatures": -3}, "ate_rmse": 1.0}, 422),
+    ({"extractor": "ORB", "params": {"colour": 3}, "ate_rmse": 1.0}, 422),
+    ({"extractor": "ORB", "context": {"light": "purple"}, "ate_rmse": 1.0}, 422),
+    ({"extractor": "ORB", "ate_rmse": -1.0}, 422),
+    ({"extractor": "ORB"}, 400),
+    ({"extractor": "ORB", "tracking_lost": 3}, 400),
+    ({"extractor": "ORB", "window_start": 10, "window_end": 5, "ate_rmse": 1.0}, 400),
+    ({"extractor": "ORB", "ate_rmse": 1.0, "session_id": "nope"}, 404),
+])
+def test_bad_feedback_is_a_clear_4xx_and_writes_nothing(service: Service, body: dict, status: int) -> None:  # type: ignore[type-arg]
+    before = service.version()
+    assert_problem(httpx.post(service.url + "/v1/feedback", json=body), status)
+    assert service.version() == before
+
+
+def test_enough_bad_feedback_prunes_an_extractor_from_the_next_commit_on(service: Service) -> None:
+    """Three windows with 60% of frames lost under texture = high exceed nfex:maxTrackingLossRate (0.25)
+    with nfex:minMeasurements (3) windows: rules/pruning/measured-tracking-loss.rq prunes BRISK there."""
+    context = {"texture": "high"}
+    assert "BRISK" not in pruned(service, context)
+    for i in range(3):
+        r = httpx.post(service.url + "/v1/feedback", json={
+            "extractor": "BRISK", "context": context, "sequence": "pytest/high-texture", "window_start": 100 * i,
+            "window_end": 100 * i + 100, "tracking_lost": 60, "ate_rmse": 3.0, "client": "pytest"})
+        assert r.status_code == 201, r.text
+        if i < 2:
+            assert "BRISK" not in pruned(service, context)  # below nfex:minMeasurements
+    because = pruned(service, context)["BRISK"]
+    assert because[0]["rule"] == TRACKING_LOSS_RULE
+    assert "60% of frames over 3 measured windows with texture = high" in because[0]["reason"]
+    assert "BRISK" not in pruned(service, {"texture": "low"})  # only where it was measured

@@ -1,0 +1,80 @@
+"""Remote-store mode: the service keeps its graph in a real `oxigraph serve` (docker-compose's layout)."""
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+
+import httpx
+import pytest
+
+from .conftest import Service, assert_problem, auth
+
+
+def test_select_feedback_sparql_and_update_over_a_sparql_server(remote_service: Service, oxigraph_url: str) -> None:
+    svc = remote_service
+    assert httpx.get(svc.url + "/readyz").json()["store"].startswith(oxigraph_url)
+    sel = httpx.post(svc.url + "/v1/select", json={"context": {"agent": "car", "motion": "fast"}}).json()
+    assert "SIFT" in {p["extractor"] for p in sel["pruned"]}
+    head = svc.version()
+    r = httpx.post(svc.url + "/v1/feedback", json={"extractor": "SIFT", "context": {"scene": "indoor"}, "ate_rmse": 0.5,
+                                                    "sequence": "remote/test", "client": "pytest"})
+    assert r.status_code == 201 and r.json()["version"] == head + 1
+    # the measurement is in the SPARQL server itself
+    direct = httpx.post(oxigraph_url + "/query", content=f"ASK {{ <{r.json()['iri']}> a <https://w3id.org/nfex#Measurement> }}",
+                        headers={"content-type": "application/sparql-query", "accept": "application/sparql-results+json"})
+    assert direct.json()["boolean"] is True
+    csv = httpx.get(svc.url + "/sparql", params={"query": "SELECT ?x WHERE { ?x a nfex:FeatureExtractor } ORDER BY ?x"},
+                    headers={"accept": "text/csv"})
+    assert csv.headers["content-type"].startswith("text/csv") and csv.text.split()[1:] == [
+        "https://w3id.org/nfex#AKAZE", "https://w3id.org/nfex#BRISK", "https://w3id.org/nfex#ORB", "https://w3id.org/nfex#SIFT"]
+    before = svc.version()
+    assert_problem(httpx.post(svc.url + "/sparql/update", content="DELETE WHERE { nfex:SIFT nfex:matchNorm ?n }",
+                              headers={"content-type": "application/sparql-update", **auth()}), 422, "shacl-violation")
+    assert_problem(httpx.get(svc.url + "/sparql", params={"query": "SELECT nonsense"}), 400)
+    assert svc.version() == before
+    ok = httpx.post(svc.url + "/sparql/update", content="INSERT DATA { nfex:SIFT rdfs:seeAlso <https://example.org/r> }",
+                    headers={"content-type": "application/sparql-update", **auth(), "If-Match": f'"{before}"'})
+    assert ok.status_code == 200 and svc.version() == before + 1
+
+
+@pytest.mark.slow
+def test_replicas_share_the_graph_and_never_lose_a_write(remote_service: Service, remote_replica: Service) -> None:
+    """Editors write through two replicas at once without If-Match: every write lands, each once."""
+    head = remote_service.version()
+
+    def write(i: int) -> int:
+        svc = (remote_service, remote_replica)[i % 2]
+        r = httpx.post(svc.url + "/sparql/update", content=f"INSERT DATA {{ nfex:ORB rdfs:seeAlso <https://example.org/replica/{i}> }}",
+                       headers={"content-type": "application/sparql-update", **auth()}, timeout=60)
+        assert r.status_code == 200, r.text
+        return int(r.json()["version"])
+
+    with ThreadPoolExecutor(4) as pool:
+        versions = sorted(pool.map(write, range(8)))
+    assert versions == list(range(head + 1, head + 9))
+    rows = httpx.get(remote_replica.url + "/sparql", params={
+        "query": "SELECT ?x WHERE { nfex:ORB rdfs:seeAlso ?x FILTER STRSTARTS(STR(?x), 'https://example.org/replica/') }"}).json()
+    assert len(rows["results"]["bindings"]) == 8
+    # a rule written through one replica prunes in the other's next selection (it polls the head, 1 s)
+    query = ('SELECT ?extractor ?reason WHERE { FILTER (?agent = nfex:agent_drone && ?texture = nfex:texture_low) '
+             'BIND (nfex:ORB AS ?extractor) BIND ("pytest replica rule" AS ?reason) }')
+    r = httpx.put(remote_service.url + "/v1/rules/pytest-replica", json={"label": "replica", "query": query}, headers=auth())
+    assert r.status_code == 201, r.text
+    import time
+
+    deadline = time.monotonic() + 10
+    while True:
+        sel = httpx.post(remote_replica.url + "/v1/select", json={"context": {"agent": "drone", "texture": "low"}}).json()
+        if "ORB" in {p["extractor"] for p in sel["pruned"]}:
+            break
+        assert time.monotonic() < deadline, "the replica never saw the rule"
+        time.sleep(0.2)
+
+
+def test_a_slow_query_on_the_sparql_server_is_cut_at_the_time_limit(remote_service: Service) -> None:
+    import time
+
+    t0 = time.monotonic()
+    slow = "SELECT (COUNT(*) AS ?n) WHERE { ?a a nfex:ConditionValue . ?b ?p ?o . ?c ?q ?r }"
+    doc = assert_problem(httpx.get(remote_service.url + "/sparql", params={"query": slow}, timeout=30), 503, "query-limit")
+    assert doc["limit"] == "time" and time.monotonic() - t0 < 5
+    assert httpx.get(remote_service.url + "/healthz").status_code == 200

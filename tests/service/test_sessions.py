@@ -1,0 +1,110 @@
+"""Frame streams over HTTP, and the session store's bounds (TTL, count, memory) directly."""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import cv2
+import httpx
+import numpy as np
+import pytest
+
+from nfex_core.errors import NotFound
+from service.sessions import SessionStore, TooManySessions
+
+from .conftest import Service, assert_problem
+
+
+def test_session_lifecycle(service: Service) -> None:
+    r = httpx.post(service.url + "/v1/sessions", json={"context": {"agent": "drone"}, "client": "pytest"})
+    assert r.status_code == 201, r.text
+    sid = r.json()["id"]
+    assert httpx.get(f"{service.url}/v1/sessions/{sid}").json()["context"] == {"agent": "drone"}
+    rng = np.random.default_rng(1)
+    frame = cv2.GaussianBlur(rng.integers(0, 255, (240, 320), dtype=np.uint8), (3, 3), 0)
+    ok, buf = cv2.imencode(".png", frame)
+    results = [httpx.post(f"{service.url}/v1/sessions/{sid}/frames", files={"frame": ("f.png", bytes(buf), "image/png")}, timeout=60)
+               for _ in range(2)]
+    if results[0].status_code == 501:  # frame scoring lands with branch wt-vision
+        assert_problem(results[0], 501, "not-implemented")
+    else:
+        assert [x.json()["session"]["temporal"] for x in results] == [False, True]
+        state = httpx.get(f"{service.url}/v1/sessions/{sid}").json()
+        assert state["frames"] == 2 and state["has_previous"]
+        assert state["state_bytes"] > 240 * 320  # the scoring image and the candidates' keypoints and descriptors
+        assert "nfex_session_state_bytes" in httpx.get(service.url + "/metrics").text
+    r = httpx.post(f"{service.url}/v1/sessions/{sid}/frames", json={"context": {}})
+    assert_problem(r, 400, "bad-input")  # a stream frame needs an image
+    assert httpx.delete(f"{service.url}/v1/sessions/{sid}").status_code == 204
+    assert_problem(httpx.get(f"{service.url}/v1/sessions/{sid}"), 404, "not-found")
+    assert_problem(httpx.delete(f"{service.url}/v1/sessions/{sid}"), 404, "not-found")
+
+
+def test_session_with_unknown_context_is_422(service: Service) -> None:
+    doc = assert_problem(httpx.post(service.url + "/v1/sessions", json={"context": {"agent": "boat"}}), 422, "unknown-name")
+    assert doc["allowed"] == ["car", "drone", "human"]
+
+
+def test_session_count_is_bounded_over_http(service: Service) -> None:
+    opened = []
+    try:
+        for _ in range(40):
+            r = httpx.post(service.url + "/v1/sessions", json={})
+            if r.status_code == 429:
+                assert_problem(r, 429, "too-many-sessions")
+                break
+            opened.append(r.json()["id"])
+        else:
+            pytest.fail("the session count is not bounded")
+        assert len(opened) <= 16
+    finally:
+        for sid in opened:
+            httpx.delete(f"{service.url}/v1/sessions/{sid}")
+
+
+@dataclass
+class FakeFeatures:
+    xy: np.ndarray
+
+
+@dataclass
+class State:
+    image: np.ndarray
+    features: dict[str, FakeFeatures]
+
+
+def state(nbytes: int) -> State:
+    return State(np.zeros(nbytes // 2, np.uint8), {"ORB": FakeFeatures(np.zeros(nbytes // 2, np.uint8))})
+
+
+def test_store_expires_idle_sessions() -> None:
+    store = SessionStore(ttl_s=0.05, max_sessions=4, memory_bytes=10**6)
+    s = store.create({})
+    time.sleep(0.1)
+    with pytest.raises(NotFound):
+        store.get(s.id)
+    assert len(store) == 0
+
+
+def test_store_bounds_the_count_and_sweeps_expired_ones_first() -> None:
+    store = SessionStore(ttl_s=0.2, max_sessions=2, memory_bytes=10**6)
+    store.create({})
+    store.create({})
+    with pytest.raises(TooManySessions):
+        store.create({})
+    time.sleep(0.25)
+    store.create({})  # the expired two made room
+    assert len(store) == 1
+
+
+def test_store_bounds_memory_by_dropping_least_recent_states() -> None:
+    store = SessionStore(ttl_s=60, max_sessions=10, memory_bytes=3000)
+    a, b, c = store.create({}), store.create({}), store.create({})
+    store.keep(a, state(1000))
+    store.keep(b, state(1000))
+    store.get(a.id)  # a is now more recent than b
+    store.keep(c, state(1500))
+    assert store.bytes_held <= 3000
+    assert b.state is None and a.state is not None and c.state is not None
+    store.keep(a, state(5000))  # larger than the whole budget: not kept
+    assert a.state is None and store.bytes_held <= 3000
