@@ -153,8 +153,7 @@ def window_errors(seq: Sequence, res: Any) -> tuple[float | None, float | None]:
     scale) of a VO result against the ground truth; (None, None) without ground truth or when the
     alignment is degenerate (e.g. the estimate does not move)."""
     from ..errors import NfexError
-    from ..trajectory import ate as ate_mod
-    from ..trajectory.io import Trajectory
+    from ..trajectory import Trajectory, ate, rpe
 
     gt = np.array([seq[f.index].pose for f in res.frames], dtype=object)
     if any(p is None for p in gt):
@@ -162,8 +161,8 @@ def window_errors(seq: Sequence, res: Any) -> tuple[float | None, float | None]:
     ref = Trajectory(res.timestamps.copy(), np.stack(list(gt)).astype(float))
     est = Trajectory(res.timestamps.copy(), res.poses.copy())
     try:
-        a = ate_mod.ate(ref, est, align="sim3")
-        r = ate_mod.rpe(ref, est, align="sim3")
+        a = ate(ref, est, align="sim3")
+        r = rpe(ref, est, align="sim3")
     except (NfexError, np.linalg.LinAlgError):
         return None, None
     if not np.isfinite(a.rmse):

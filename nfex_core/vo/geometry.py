@@ -76,7 +76,9 @@ def relative_pose(
     E, mask = cv2.findEssentialMat(p1, p2, K, method=cv2.RANSAC, prob=prob, threshold=threshold_px)
     if E is None or mask is None or E.shape != (3, 3):
         return None  # degenerate, or several solutions stacked (3k×3): take it as no model
-    _, R, t, pose_mask = cv2.recoverPose(E, p1, p2, K, mask=mask.copy())
+    # a large distance threshold: with |t| = 1 the default (50) would drop the far points of a
+    # fast-moving car (KITTI highway: most points lie beyond 50 baselines) and fake a tracking loss
+    _, R, t, pose_mask, _ = cv2.recoverPose(E, p1, p2, K, distanceThresh=1e6, mask=mask.copy())
     inliers = pose_mask.ravel().astype(bool)
     flow = np.linalg.norm(p2[inliers] - p1[inliers], axis=1) if inliers.any() else np.zeros(1)
     return RelativePose(R, t.ravel() / max(float(np.linalg.norm(t)), 1e-12), inliers, float(np.median(flow)))
