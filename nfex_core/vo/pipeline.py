@@ -172,10 +172,10 @@ def run_vo(
             lost = step is None
             if step is not None:
                 length = scale.step(step, same, prev_frame, frame)
-                velocity = np.eye(4)
-                velocity[:3, :3] = step.R
-                velocity[:3, 3] = length * step.t
-                velocity = np.linalg.inv(velocity)
+                forward = np.eye(4)  # camera k-1 → camera k
+                forward[:3, :3] = step.R
+                forward[:3, 3] = length * step.t
+                velocity = np.asarray(np.linalg.inv(forward), dtype=float)
             else:
                 scale.reset()
             pose = poses[-1] @ velocity
