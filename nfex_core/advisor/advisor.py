@@ -2,8 +2,9 @@
 
     frame + context ─► conditions: fill unknown dimensions from the frame (vision.context)
                     ─► symbolic: candidates C(E) with the rules that pruned the others (rules.engine)
-                    ─► params: Θ′ per candidate = g(Θ, E), clamped to the graph's ranges (fitness)
-                    ─► selection: α* = argmax over C(E) of F_metrics on the frame (fitness, vision)
+                    ─► params: Θ′ per candidate = g(Θ, E) or ParamNet(E, s), clamped to the graph's ranges
+                    ─► selection: α* = argmax over C(E) of F_metrics on the frame (fitness, vision),
+                                  or of SelectorNet's probabilities masked to C(E) (neural.serve)
                     ─► Selection {α*, Θ′, scores, pruned + reasons, context used, versions, timings}
 
 It holds a snapshot — graph version, vocabulary, compiled rule table, extractor registry — and
@@ -17,7 +18,7 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -25,6 +26,7 @@ import numpy as np
 from ..errors import NoCandidate
 from ..fitness import adjust_params, f_metrics
 from ..kg.vocab import Vocabulary
+from ..neural.serve import ModelHolder, NeuralStep, frame_stats
 from ..rules.engine import Decision, RuleEngine, RuleTable
 from .selection import CandidateScore, ContextEntry, PrunedCandidate, Selection
 
@@ -81,8 +83,20 @@ def downscale(image: np.ndarray, max_side: int) -> np.ndarray:
 
 
 class Advisor:
-    def __init__(self, kg: KnowledgeGraph, *, score_max_side: int = 640, poll_interval_s: float = 1.0) -> None:
+    """``neural``: symbolic | paramnet | selectornet | both (default: $NFEX_NEURAL or both; see neural.serve);
+    ``models``: the model folder (default: Settings.models). Without a usable model the advisor is symbolic."""
+
+    def __init__(
+        self,
+        kg: KnowledgeGraph,
+        *,
+        score_max_side: int = 640,
+        poll_interval_s: float = 1.0,
+        neural: str | None = None,
+        models: Any = None,
+    ) -> None:
         self.kg = kg
+        self.neural = ModelHolder(models, neural)
         self.engine = RuleEngine(kg)
         self.score_max_side = score_max_side
         self.poll_interval_s = poll_interval_s
@@ -150,7 +164,15 @@ class Advisor:
                 pruned=[PrunedCandidate(x, cs).as_dict() for x, cs in decision.pruned.items()],
             )
         lap("symbolic")
-        scored, state, mode = self._score(snap, decision, image, previous)
+        nn = self.neural.step(snap.vocab)
+        if nn.active:
+            nn.prepare(values, frame_stats(image))
+            lap("neural")
+        scored, state, mode = self._score(snap, decision, image, previous, nn)
+        if nn.selectornet:
+            probs = nn.probabilities(image, {c.extractor: c.metrics for c in scored}, decision.candidates)
+            scored = [replace(c, score=probs[c.extractor], evidence={**c.evidence, "f": c.score}) for c in scored]
+            mode = "selectornet"
         lap("selection")
         best = max(scored, key=lambda c: (c.score if c.score is not None else -np.inf, -_cost(decision, c.extractor)))
         spec = snap.vocab.extractor(best.extractor)
@@ -163,7 +185,7 @@ class Advisor:
             pruned=tuple(PrunedCandidate(x, cs) for x, cs in sorted(decision.pruned.items())),
             context=tuple(entries),
             weights=dict(decision.weights),
-            versions={"graph": snap.version, "programs": snap.programs, "rules": len(snap.table.rules)},
+            versions={"graph": snap.version, "programs": snap.programs, "rules": len(snap.table.rules), "model": nn.info},
             timings_ms=timings,
             constructor=spec.constructor,
             norm=spec.norm_for(best.params),
@@ -195,12 +217,20 @@ class Advisor:
             values[dim] = entry.value
         return entries, values
 
+    def _theta(
+        self, spec: Any, decision: Decision, nn: NeuralStep, pixels: int | None = None
+    ) -> tuple[dict[str, Any], list[Any]]:
+        """Θ′ = ParamNet(E, s) when the neural step has it, else g(Θ, E); clamped to the graph either way."""
+        if nn.paramnet:
+            return nn.params(spec, pixels)
+        return adjust_params(spec, decision.factors.get(spec.name, {}), pixels=pixels)
+
     def _score(
-        self, snap: Snapshot, decision: Decision, image: np.ndarray | None, previous: FrameState | None
+        self, snap: Snapshot, decision: Decision, image: np.ndarray | None, previous: FrameState | None, nn: NeuralStep
     ) -> tuple[list[CandidateScore], FrameState | None, str]:
         vocab = snap.vocab
         if image is None:
-            return [self._prior(snap, decision, x) for x in decision.candidates], None, "prior"
+            return [self._prior(snap, decision, x, nn) for x in decision.candidates], None, "prior"
         small = downscale(image, self.score_max_side)
         from ..vision.metrics import compute_metrics
 
@@ -208,10 +238,9 @@ class Advisor:
         features: dict[str, Any] = {}
         for x in decision.candidates:
             spec = vocab.extractor(x)
-            factors = decision.factors.get(x, {})
-            params, adjustments = adjust_params(spec, factors, pixels=int(image.shape[0] * image.shape[1]))
+            params, adjustments = self._theta(spec, decision, nn, int(image.shape[0] * image.shape[1]))
             # F_metrics is measured on the scoring image, with count parameters scaled to its size
-            score_params, _ = adjust_params(spec, factors, pixels=int(small.shape[0] * small.shape[1]))
+            score_params, _ = self._theta(spec, decision, nn, int(small.shape[0] * small.shape[1]))
             feats = snap.registry.extract(x, small, score_params)
             features[x] = feats
             prev = None
@@ -234,10 +263,10 @@ class Advisor:
             )
         return out, FrameState(small, features), "metrics"
 
-    def _prior(self, snap: Snapshot, decision: Decision, x: str) -> CandidateScore:
+    def _prior(self, snap: Snapshot, decision: Decision, x: str, nn: NeuralStep) -> CandidateScore:
         """Without a frame: the preference bonus plus measured accuracy (best mean ATE / this one's)."""
         spec = snap.vocab.extractor(x)
-        params, adjustments = adjust_params(spec, decision.factors.get(x, {}))
+        params, adjustments = self._theta(spec, decision, nn)
         bonus = decision.bonuses[x].value if x in decision.bonuses else 0.0
         measured = [e.mean_ate for e in decision.evidence.values() if e.mean_ate]
         own = decision.evidence.get(x)
