@@ -1,11 +1,9 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nfex_core.kg import KnowledgeGraph
 from nfex_core.neural import torch_nets
 from nfex_core.neural.encoding import InputVocabulary, ParamScale
 from nfex_core.neural.paramnet import ParamNet, decode, init_weights
@@ -39,20 +37,6 @@ def test_unit_scale_round_trip(u: float, scale: str) -> None:
     p = ParamScale("X", "p", "double", 1e-3 if scale == "log" else 0.0, 20000.0, scale)
     assert abs(p.to_unit(p.from_unit(u)) - u) < 1e-9
     assert p.lo <= p.from_unit(u) <= p.hi * (1 + 1e-12)
-
-
-@pytest.fixture(scope="module")
-def vocab(seeded_template):  # type: ignore[no-untyped-def]
-    import shutil
-    import tempfile
-    from pathlib import Path
-
-    d = Path(tempfile.mkdtemp()) / "store"
-    shutil.copytree(seeded_template, d, ignore=shutil.ignore_patterns("LOCK"))
-    kg = KnowledgeGraph.open(str(d), seed=False)
-    v = kg.vocabulary()
-    kg.close()
-    return v
 
 
 @settings(deadline=None, max_examples=50)

@@ -1,0 +1,93 @@
+"""The advisor with the neural step: modes, Θ′ from ParamNet inside the graph's ranges, masking, fallbacks."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from nfex_core.advisor import Advisor
+from nfex_core.errors import UnknownName
+from nfex_core.fitness import adjust_params
+from nfex_core.kg import KnowledgeGraph
+from nfex_core.kg.sparql_query import with_prefixes
+
+from .test_artifacts import NARROW_NFEATURES
+
+DARK = {"agent": "car", "scene": "outdoor", "light": "dark"}
+BRIGHT = {"agent": "car", "scene": "outdoor", "light": "bright"}
+
+
+def symbolic_params(kg: KnowledgeGraph, extractor: str, context: dict[str, str]) -> dict[str, object]:
+    a = Advisor(kg, neural="symbolic")
+    decision = a.snapshot().table.decide({**{d: None for d in a.snapshot().vocab.dimensions}, **context})
+    return adjust_params(a.snapshot().vocab.extractor(extractor), decision.factors.get(extractor, {}))[0]
+
+
+def test_both_uses_the_networks_and_reports_the_model(trained, kg: KnowledgeGraph) -> None:  # type: ignore[no-untyped-def]
+    _, model = trained
+    s = Advisor(kg, models=model.path).select(DARK)
+    info = s.versions["model"]
+    assert info["used"] == "paramnet+selectornet" and info["version"] == model.version
+    assert s.mode == "selectornet"
+    assert abs(sum(c.score for c in s.candidates) - 1.0) < 1e-6  # type: ignore[misc]
+    vocab = kg.vocabulary()
+    for c in s.candidates:
+        spec = vocab.extractor(c.extractor)
+        assert spec.resolve(c.params) == c.params  # every θ′ valid in the graph
+        assert any("ParamNet" in a.citations[0].label for a in c.adjustments)
+
+
+def test_the_planted_rule_comes_back(trained, kg: KnowledgeGraph) -> None:  # type: ignore[no-untyped-def]
+    """The generated table makes ORB with a low FAST threshold best in the dark, SIFT best in bright light."""
+    _, model = trained
+    a = Advisor(kg, models=model.path)
+    dark, bright = a.select(DARK), a.select(BRIGHT)
+    assert (dark.extractor, bright.extractor) == ("ORB", "SIFT")
+    orb = {s: next(c for c in sel.candidates if c.extractor == "ORB") for s, sel in (("dark", dark), ("bright", bright))}
+    assert orb["dark"].params["fastThreshold"] < orb["bright"].params["fastThreshold"]
+
+
+@pytest.mark.parametrize("mode,used", [("paramnet", "paramnet"), ("selectornet", "selectornet"), ("symbolic", "symbolic")])
+def test_modes(trained, kg: KnowledgeGraph, mode: str, used: str) -> None:  # type: ignore[no-untyped-def]
+    _, model = trained
+    s = Advisor(kg, models=model.path, neural=mode).select(DARK)
+    assert s.versions["model"]["used"] == used
+    assert (s.mode == "selectornet") == (mode == "selectornet")
+    if mode in ("selectornet", "symbolic"):
+        assert s.params == symbolic_params(kg, s.extractor, DARK)
+    else:
+        assert s.params != symbolic_params(kg, s.extractor, DARK)
+
+
+def test_changed_vocabulary_falls_back_and_says_so(trained, kg: KnowledgeGraph) -> None:  # type: ignore[no-untyped-def]
+    _, model = trained
+    a = Advisor(kg, models=model.path)
+    assert a.select(DARK).versions["model"]["used"] == "paramnet+selectornet"
+    kg.update(with_prefixes(NARROW_NFEATURES), author="test", message="narrow ORB.nfeatures")
+    s = a.select(DARK)
+    assert s.versions["model"]["used"] == "symbolic"
+    assert "changed since training" in s.versions["model"]["fallback"]
+    assert s.params == symbolic_params(kg, s.extractor, DARK)
+
+
+def test_no_model_is_symbolic(kg: KnowledgeGraph, tmp_path: Path) -> None:
+    s = Advisor(kg, models=tmp_path).select(DARK)
+    assert s.versions["model"]["used"] == "symbolic" and "no model" in s.versions["model"]["fallback"]
+
+
+def test_unknown_mode_lists_the_modes(kg: KnowledgeGraph) -> None:
+    with pytest.raises(UnknownName, match="selectornet"):
+        Advisor(kg, neural="magic")
+
+
+def test_with_a_kitti_frame(trained, kg: KnowledgeGraph, data_dir: Path) -> None:  # type: ignore[no-untyped-def]
+    pytest.importorskip("nfex_core.vision.metrics", reason="the frame path needs vision.metrics (branch wt-vision)")
+    import cv2
+
+    _, model = trained
+    frame = cv2.imread(str(data_dir / "kitti" / "sequences" / "00" / "image_0" / "000000.png"), cv2.IMREAD_GRAYSCALE)
+    s = Advisor(kg, models=model.path).select({"agent": "car"}, frame=frame)
+    assert s.mode == "selectornet" and s.extractor in {c.extractor for c in s.candidates}
+    assert {x.extractor for x in s.pruned}.isdisjoint(c.extractor for c in s.candidates)
+    nfeat = next(c for c in s.candidates if c.extractor == "ORB").params["nfeatures"]
+    assert 1 <= nfeat <= 20000
