@@ -188,6 +188,39 @@ CASES = {
 }
 
 
+# DSL programs and statements (rules/shapes/dsl.ttl)
+_STMT = 'rdfs:label "s" ; nfex:inProgram nfex:program_default ; '
+CASES.update(
+    {
+        "program without a name": ("nfex:program_x a nfex:Program .", "program_x", "ProgramShape"),
+        "statement in no program": ('nfex:s1 a nfex:PruneStatement ; rdfs:label "prune ORB" ; nfex:prunes nfex:ORB .', "s1", "StatementShape"),
+        "prune statement naming no extractor": ("nfex:s1 a nfex:PruneStatement ; " + _STMT + "nfex:prunes nfex:light_dark .", "s1", "PruneStatementShape"),
+        "adjust statement with factor 0": (
+            "nfex:s1 a nfex:AdjustStatement ; " + _STMT + 'nfex:parameter nfex:ORB_nfeatures ; nfex:factor "0.0"^^xsd:double .',
+            "s1",
+            "AdjustStatementShape",
+        ),
+        "weight statement with a negative weight": (
+            "nfex:s1 a nfex:WeightStatement ; " + _STMT + 'nfex:metric nfex:texturedness ; nfex:weight "-1.0"^^xsd:double .',
+            "s1",
+            "WeightStatementShape",
+        ),
+        "prefer statement without a bonus": ("nfex:s1 a nfex:PreferStatement ; " + _STMT + "nfex:prefers nfex:ORB .", "s1", "PreferStatementShape"),
+        "require statement with an unknown comparator": (
+            "nfex:s1 a nfex:RequireStatement ; " + _STMT + 'nfex:parameter nfex:ORB_nfeatures ; nfex:comparator "!=" ; nfex:bound 5 .',
+            "s1",
+            "RequireStatementShape",
+        ),
+        "condition atom with a value of another dimension": (
+            "nfex:s1 a nfex:PruneStatement ; " + _STMT + "nfex:prunes nfex:ORB ; nfex:hasCondition nfex:s1_when_1 . "
+            "nfex:s1_when_1 a nfex:ConditionAtom ; nfex:dimension nfex:light ; nfex:oneOf nfex:agent_car .",
+            "s1_when_1",
+            "ConditionAtomShape",
+        ),
+    }
+)
+
+
 def test_the_seeded_graph_conforms(kg: KnowledgeGraph) -> None:
     report = kg.validate()
     assert report.conforms, report.text

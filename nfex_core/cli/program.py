@@ -1,0 +1,98 @@
+"""``nfex program …``: check, apply, show and list DSL programs (docs/dsl.md)."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from ..errors import NotFound
+from .common import author as author_of
+from .common import echo_json, open_kg, settings, table
+
+app = typer.Typer(help="DSL programs: check and apply rule files, show what the graph holds.", no_args_is_help=True)
+
+FileArg = Annotated[Path, typer.Argument(help="A program file (.nfex).", exists=True, dir_okay=False, readable=True)]
+
+
+@app.command()
+def check(file: FileArg) -> None:
+    """Parse FILE and check every name against the graph; print every problem with its line and column.
+
+    Exit 0 when the program is valid, 2 on a syntax error, an unknown name or a number out of range.
+    """
+    from ..rules.dsl.check import problems
+    from ..rules.dsl.parser import parse_file
+    from ..rules.dsl.programs import source_name
+
+    program = parse_file(file, source=source_name(file, settings()))
+    vocab = open_kg().vocabulary()
+    found = problems(program, vocab)
+    for e in found:
+        typer.echo(e.detail)
+    if found:
+        raise found[0]
+    typer.echo(f"ok: program {program.name}, {len(program.statements)} statements")
+
+
+@app.command()
+def apply(
+    file: FileArg,
+    message: Annotated[str, typer.Option("--message", "-m", help="A note kept with the version.")] = "",
+    author: Annotated[str | None, typer.Option("--author", help="Who makes the change.")] = None,
+    expect_version: Annotated[int | None, typer.Option("--expect-version", help="Refuse (exit 5) unless the graph is at this version.")] = None,
+) -> None:
+    """Check FILE and replace that program's statements in the graph as one versioned transaction."""
+    from ..rules.dsl import programs
+
+    kg = open_kg()
+    program, graph = programs.load(file, kg.vocabulary(), settings())
+    result = programs.apply(
+        kg, graph, program.name, author=author_of(author), message=message or f"apply program {program.name} from {file.name}",
+        expected_version=expect_version,
+    )
+    if result.changed:
+        typer.echo(f"version {result.version}: program {program.name}, {len(program.statements)} statements (+{result.added} −{result.removed} triples)")
+    else:
+        typer.echo(f"no change; program {program.name} is already in the graph at version {result.version}")
+
+
+@app.command()
+def show(name: Annotated[str | None, typer.Argument(help="The program's name (default: every program).")] = None) -> None:
+    """Print a program's text as the graph holds it (read back from its triples)."""
+    from ..rules.dsl import programs
+    from ..rules.dsl.parser import render
+
+    kg = open_kg()
+    names = [name] if name else [p.name for p in programs.programs(kg)]
+    if not names:
+        raise NotFound("the graph holds no program")
+    typer.echo("\n".join(render(programs.show(kg, n)) for n in names), nl=False)
+
+
+@app.command("list")
+def list_(as_json: Annotated[bool, typer.Option("--json", help="JSON instead of a table.")] = False) -> None:
+    """The programs in the graph, with their statement counts and source files."""
+    from ..rules.dsl import programs
+
+    infos = programs.programs(open_kg())
+    if as_json:
+        echo_json([i.__dict__ for i in infos])
+        return
+    typer.echo(table(["program", "statements", "source", "iri"], [[i.name, str(i.statements), i.source or "", i.iri] for i in infos]))
+
+
+@app.command()
+def remove(
+    name: Annotated[str, typer.Argument(help="The program to remove.")],
+    message: Annotated[str, typer.Option("--message", "-m")] = "",
+    author: Annotated[str | None, typer.Option("--author")] = None,
+) -> None:
+    """Remove a program and all its statements as one transaction."""
+    from ..rules.dsl import programs
+
+    kg = open_kg()
+    if name not in {p.name for p in programs.programs(kg)}:
+        raise NotFound(f"no program named {name!r}; the graph holds: {', '.join(p.name for p in programs.programs(kg)) or '(none)'}")
+    result = programs.remove(kg, name, author=author_of(author), message=message)
+    typer.echo(f"version {result.version}: removed program {name} (−{result.removed} triples)")

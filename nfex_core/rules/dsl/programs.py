@@ -1,0 +1,96 @@
+"""Programs in the knowledge graph: check, apply (one versioned, SHACL-checked transaction), read back.
+
+Applying a program replaces that program's previous statements: the commit removes the triples of
+the old version of the program that the new one does not have and adds the new ones, so statements
+that did not change keep their IRIs and the graph version records exactly what changed.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import rdflib
+
+from ...config import Settings
+from ...kg.changes import ChangeSet, graph_triples
+from ...kg.terms import n3
+from ...kg.vocab import Vocabulary
+from .check import check
+from .compiler import compile_program, decompile, program_iri
+from .parser import Program, parse, parse_file
+
+if TYPE_CHECKING:
+    from ...kg.store import CommitResult, KnowledgeGraph
+
+
+@dataclass(frozen=True)
+class ProgramInfo:
+    name: str
+    iri: str
+    statements: int
+    source: str | None
+
+
+def source_name(path: Path, settings: Settings) -> str:
+    """``path`` relative to the repository when it lies inside it (what nfex:sourceFile records)."""
+    try:
+        return str(path.resolve().relative_to(settings.home.resolve()))
+    except ValueError:
+        return str(path)
+
+
+def load(path: Path, vocab: Vocabulary, settings: Settings | None = None) -> tuple[Program, rdflib.Graph]:
+    """Parse, check and compile a ``.nfex`` file; raises ParseError / UnknownName / ParameterError."""
+    source = source_name(path, settings or Settings.from_env())
+    program = check(parse_file(path, source=source), vocab)
+    return program, compile_program(program, vocab, source_file=source)
+
+
+def compile_text(text: str, vocab: Vocabulary, *, name: str, source: str | None = None) -> tuple[Program, rdflib.Graph]:
+    program = check(parse(text, name=name, source=source), vocab)
+    return program, compile_program(program, vocab, source_file=source)
+
+
+def program_graph(kg: KnowledgeGraph, name: str) -> rdflib.Graph:
+    """Every triple of the program ``name`` in the graph: the program node, its statements and their atoms."""
+    p = n3(program_iri(name))
+    return kg.construct(
+        f"""CONSTRUCT {{ ?s ?p ?o }} WHERE {{
+            {{ BIND ({p} AS ?s) ?s ?p ?o }}
+            UNION {{ ?s nfex:inProgram {p} ; ?p ?o }}
+            UNION {{ ?st nfex:inProgram {p} ; nfex:hasCondition ?s . ?s ?p ?o }}
+        }}"""
+    )
+
+
+def apply(kg: KnowledgeGraph, graph: rdflib.Graph, name: str, *, author: str, message: str = "", expected_version: int | None = None) -> CommitResult:
+    """Replace program ``name`` in the graph by ``graph`` (its compiled triples) as one transaction."""
+    old = graph_triples(program_graph(kg, name))
+    new = graph_triples(graph)
+    change = ChangeSet.of(added=new - old, removed=old - new)
+    return kg.commit(change, author=author, message=message or f"apply program {name}", expected_version=expected_version)
+
+
+def remove(kg: KnowledgeGraph, name: str, *, author: str, message: str = "") -> CommitResult:
+    """Remove program ``name`` and all its statements as one transaction."""
+    old = graph_triples(program_graph(kg, name))
+    return kg.commit(ChangeSet.removing(old), author=author, message=message or f"remove program {name}")
+
+
+def show(kg: KnowledgeGraph, name: str) -> Program:
+    """The program ``name`` as the graph holds it (NotFound when there is none)."""
+    return decompile(program_graph(kg, name), name, kg.vocabulary())
+
+
+def programs(kg: KnowledgeGraph) -> list[ProgramInfo]:
+    rows = kg.select(
+        """SELECT ?p ?name ?file (COUNT(?s) AS ?n) WHERE {
+            ?p a nfex:Program ; rdfs:label ?name .
+            OPTIONAL { ?p nfex:sourceFile ?file } OPTIONAL { ?s nfex:inProgram ?p }
+        } GROUP BY ?p ?name ?file ORDER BY ?name"""
+    ).rows
+    return [
+        ProgramInfo(str(r["name"]), str(r["p"]), int(r["n"].toPython()), str(r["file"]) if "file" in r else None)  # type: ignore[union-attr]
+        for r in rows
+    ]
