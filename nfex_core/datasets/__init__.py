@@ -9,7 +9,9 @@ from pathlib import Path
 
 from ..errors import BadInput
 from .base import Frame, Intrinsics, Sequence
+from .corruptions import corrupt
 from .frames import ArraySequence, ImageSequence
+from .synthetic import make_sequence
 
 FORMATS = ("kitti", "euroc", "tum", "handheld")
 
@@ -41,4 +43,14 @@ def open_sequence(path: str | Path, format: str, sequence: str | None = None) ->
     raise BadInput(f"unknown dataset format {format!r}; known: {', '.join(FORMATS)}")
 
 
-__all__ = ["FORMATS", "ArraySequence", "Frame", "ImageSequence", "Intrinsics", "Sequence", "open_sequence"]
+__all__ = [
+    "FORMATS",
+    "ArraySequence",
+    "Frame",
+    "ImageSequence",
+    "Intrinsics",
+    "Sequence",
+    "corrupt",
+    "make_sequence",
+    "open_sequence",
+]

@@ -2,7 +2,9 @@
 
 Both support ``seq[i]`` (a ``Frame``; negative indices count from the end) and ``seq[a:b]`` (a
 sequence over those frames, e.g. a sweep window), so loaders, corruptions and the synthetic
-generator all hand the rest of nFEX one type.
+generator all hand the rest of nFEX one type. A frame keeps its index in the full sequence when it
+is reached through a slice (``seq[10:20][0].index == 10``), so windows report dataset frame numbers
+and seeded corruptions give a frame the same noise however the sequence was sliced.
 """
 from __future__ import annotations
 
@@ -29,6 +31,7 @@ class _Indexed(Sequence):
     """Shared indexing: ``_frame(i)`` for a valid index, slices by ``_take(indices)``."""
 
     _n: int
+    _ids: list[int]
 
     def __len__(self) -> int:
         return self._n
@@ -69,6 +72,7 @@ class ImageSequence(_Indexed):
         poses: np.ndarray | None,
         context: dict[str, str] | None = None,
         loader: Callable[[Path], np.ndarray] = read_grey,
+        frame_ids: list[int] | None = None,
     ) -> None:
         self.dataset = dataset
         self.name = name
@@ -79,6 +83,7 @@ class ImageSequence(_Indexed):
         self._poses = None if poses is None else np.asarray(poses, dtype=float)
         self._loader = loader
         self._n = len(self._paths)
+        self._ids = list(range(self._n)) if frame_ids is None else list(frame_ids)
         if self._timestamps.shape != (self._n,):
             raise ValueError(f"{self._n} images but {self._timestamps.shape[0]} timestamps")
         if self._poses is not None and self._poses.shape != (self._n, 4, 4):
@@ -102,7 +107,7 @@ class ImageSequence(_Indexed):
         pose = None
         if self._poses is not None and not np.isnan(self._poses[i]).any():
             pose = self._poses[i].copy()
-        return Frame(i, float(self._timestamps[i]), self._loader(self._paths[i]), pose, dict(self.context))
+        return Frame(self._ids[i], float(self._timestamps[i]), self._loader(self._paths[i]), pose, dict(self.context))
 
     def _take(self, ids: list[int]) -> Sequence:
         return ImageSequence(
@@ -114,6 +119,7 @@ class ImageSequence(_Indexed):
             None if self._poses is None else self._poses[ids],
             self.context,
             self._loader,
+            [self._ids[i] for i in ids],
         )
 
 
@@ -130,6 +136,7 @@ class ArraySequence(_Indexed):
         poses: np.ndarray | None,
         context: dict[str, str] | None = None,
         frame_context: list[dict[str, str]] | None = None,
+        frame_ids: list[int] | None = None,
     ) -> None:
         self.dataset = dataset
         self.name = name
@@ -137,6 +144,7 @@ class ArraySequence(_Indexed):
         self.context = dict(context or {})
         self._images = list(images)
         self._n = len(self._images)
+        self._ids = list(range(self._n)) if frame_ids is None else list(frame_ids)
         self._timestamps = np.asarray(timestamps, dtype=float)
         self._poses = None if poses is None else np.asarray(poses, dtype=float)
         self._frame_context = frame_context or [{} for _ in range(self._n)]
@@ -157,7 +165,7 @@ class ArraySequence(_Indexed):
         if self._poses is not None and not np.isnan(self._poses[i]).any():
             pose = self._poses[i].copy()
         ctx = dict(self.context) | self._frame_context[i]
-        return Frame(i, float(self._timestamps[i]), self._images[i], pose, ctx)
+        return Frame(self._ids[i], float(self._timestamps[i]), self._images[i], pose, ctx)
 
     def _take(self, ids: list[int]) -> Sequence:
         return ArraySequence(
@@ -169,4 +177,5 @@ class ArraySequence(_Indexed):
             None if self._poses is None else self._poses[ids],
             self.context,
             [self._frame_context[i] for i in ids],
+            [self._ids[i] for i in ids],
         )

@@ -3,7 +3,15 @@ from __future__ import annotations
 
 from .align import Alignment, align, umeyama
 from .ate import ErrorStats, associate, ate, rpe
-from .io import Trajectory, read_trajectory, write_euroc, write_kitti, write_trajectory, write_tum
+from .io import (
+    Trajectory,
+    from_sequence,
+    read_trajectory,
+    write_euroc,
+    write_kitti,
+    write_trajectory,
+    write_tum,
+)
 
 __all__ = [
     "Alignment",
@@ -12,6 +20,7 @@ __all__ = [
     "align",
     "associate",
     "ate",
+    "from_sequence",
     "read_trajectory",
     "rpe",
     "umeyama",

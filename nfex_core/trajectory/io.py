@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -49,6 +50,15 @@ class Trajectory:
         if len(self) < 2:
             return 0.0
         return float(np.sum(np.linalg.norm(np.diff(self.positions, axis=0), axis=1)))
+
+
+def from_sequence(seq: Any) -> Trajectory:
+    """The ground truth of a ``datasets.Sequence`` as a trajectory (frames without a pose left out)."""
+    poses = seq.poses
+    if poses is None:
+        raise BadInput(f"{seq.key} has no ground-truth poses")
+    keep = ~np.isnan(poses).reshape(len(poses), -1).any(axis=1)
+    return Trajectory(np.asarray(seq.timestamps)[keep], poses[keep])
 
 
 def quaternion_to_matrix(q: np.ndarray) -> np.ndarray:

@@ -68,3 +68,16 @@ def test_bad_files(tmp_path: Path) -> None:
         read_trajectory(bad, "tum")
     with pytest.raises(BadInput, match="unknown trajectory format"):
         read_trajectory(bad, "g2o")
+
+
+def test_from_sequence_drops_frames_without_ground_truth() -> None:
+    from nfex_core.datasets import ArraySequence, Intrinsics
+    from nfex_core.trajectory import from_sequence
+
+    poses = np.tile(np.eye(4), (4, 1, 1))
+    poses[2] = np.nan
+    seq = ArraySequence("t", "x", Intrinsics(1, 1, 0, 0, 2, 2), [np.zeros((2, 2), np.uint8)] * 4, np.arange(4.0), poses)
+    traj = from_sequence(seq)
+    assert traj.timestamps.tolist() == [0.0, 1.0, 3.0] and traj.poses.shape == (3, 4, 4)
+    with pytest.raises(BadInput, match="no ground-truth"):
+        from_sequence(ArraySequence("t", "y", seq.intrinsics, [np.zeros((2, 2), np.uint8)], np.zeros(1), None))
