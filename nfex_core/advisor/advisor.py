@@ -221,7 +221,7 @@ class Advisor:
         self, spec: Any, decision: Decision, nn: NeuralStep, pixels: int | None = None
     ) -> tuple[dict[str, Any], list[Any]]:
         """Θ′ = ParamNet(E, s) when the neural step has it, else g(Θ, E); clamped to the graph either way."""
-        if nn.paramnet:
+        if nn.covers(spec.name):
             return nn.params(spec, pixels)
         return adjust_params(spec, decision.factors.get(spec.name, {}), pixels=pixels)
 

@@ -16,6 +16,7 @@ import json
 import subprocess
 import time
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +43,12 @@ class NeuralModel:
     @property
     def version(self) -> str:
         return str(self.manifest.get("version", "unsaved"))
+
+    @cached_property
+    def trained_params(self) -> frozenset[str]:
+        """ParamNet outputs that had a training target (all, for a manifest that does not say)."""
+        listed = self.manifest.get("paramnet_trained")
+        return frozenset(listed if listed is not None else (p.qualified for p in self.inputs.params))
 
     def check(self, vocab: Vocabulary) -> str | None:
         """None when the graph's vocabulary is the one the model was trained on; else the reason it is not."""

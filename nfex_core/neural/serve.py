@@ -65,6 +65,10 @@ class NeuralStep:
         if self.paramnet and self.model.paramnet is not None:
             self._u = self.model.paramnet.forward(np.concatenate([ctx, self._stats]))
 
+    def covers(self, extractor: str) -> bool:
+        """Whether ParamNet learned any of this extractor's parameters (the sweep may not have measured it)."""
+        return self.paramnet and self.model is not None and any(q.startswith(extractor + ".") for q in self.model.trained_params)
+
     def params(self, spec: ExtractorSpec, pixels: int | None) -> tuple[dict[str, Value], list[Adjustment]]:
         """Θ′ for one candidate: the graph's defaults with ParamNet's outputs, clamped to the graph."""
         assert self.model is not None and self._u is not None
@@ -76,7 +80,10 @@ class NeuralStep:
             kind="adjust",
         )
         adjustments = []
+        trained = self.model.trained_params
         for name, (value, raw) in decode(self.model.inputs, self._u, spec, pixels).items():
+            if f"{spec.name}.{name}" not in trained:
+                continue
             before = theta[name]
             theta[name] = value
             factor = raw / float(before) if float(before) else 0.0

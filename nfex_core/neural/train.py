@@ -178,6 +178,8 @@ def train(
             },
             "training": {"optimizer": "Adam", "lr": lr, "batch": batch, "epochs": epochs, "seed": seed, "torch": torch.__version__},
             "metrics": metrics,
+            # ParamNet outputs that had a target in training; the advisor uses g(Θ, E) for the others
+            "paramnet_trained": [p.qualified for p, n in zip(inputs.params, A.ymask.sum(0), strict=True) if n > 0],
         },
     )
     model.save(out)

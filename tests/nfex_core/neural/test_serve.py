@@ -91,3 +91,20 @@ def test_with_a_kitti_frame(trained, kg: KnowledgeGraph, data_dir: Path) -> None
     assert {x.extractor for x in s.pruned}.isdisjoint(c.extractor for c in s.candidates)
     nfeat = next(c for c in s.candidates if c.extractor == "ORB").params["nfeatures"]
     assert 1 <= nfeat <= 20000
+
+
+def test_extractors_the_sweep_did_not_measure_keep_the_symbolic_params(trained, kg: KnowledgeGraph, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    """ParamNet's outputs for an extractor without any training target are untrained: g(Θ, E) is used instead."""
+    import json
+    import shutil
+
+    _, model = trained
+    d = tmp_path / "m"
+    shutil.copytree(model.path, d)
+    manifest = json.loads((d / "manifest.json").read_text())
+    manifest["paramnet_trained"] = [q for q in manifest["paramnet_trained"] if not q.startswith("AKAZE.")]
+    (d / "manifest.json").write_text(json.dumps(manifest))
+    s = Advisor(kg, models=d, neural="paramnet").select(DARK)
+    by = {c.extractor: c for c in s.candidates}
+    assert by["AKAZE"].params == symbolic_params(kg, "AKAZE", DARK)
+    assert by["ORB"].params != symbolic_params(kg, "ORB", DARK)
