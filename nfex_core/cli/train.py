@@ -14,7 +14,7 @@ from .common import err, open_kg, settings
 def train(
     table: Annotated[Path, typer.Option("--table", help="The sweep's training table (CSV, one row per window × configuration).")],
     out: Annotated[Path | None, typer.Option("--out", help="Model folder to write (default: $NFEX_MODELS/default).")] = None,
-    epochs: Annotated[int, typer.Option("--epochs", help="Passes over the training windows.")] = 300,
+    epochs: Annotated[int | None, typer.Option("--epochs", help="Passes over the training windows (default: enough for 4,000 Adam steps, at least 300).")] = None,
     lr: Annotated[float, typer.Option("--lr", help="Adam learning rate (the paper: 1e-4).")] = 1e-4,
     batch: Annotated[int, typer.Option("--batch", help="Batch size (the paper: 8).")] = 8,
     val_sequences: Annotated[
@@ -22,6 +22,7 @@ def train(
         typer.Option("--val-sequences", help="Sequences held out for validation (dataset/sequence or name; repeatable). "
                      "Default: the last sequence; with one sequence, its second half."),
     ] = None,
+    refit_all: Annotated[bool, typer.Option("--refit-all", help="After validating, train the shipped weights again on every window.")] = False,
     no_images: Annotated[bool, typer.Option("--no-images", help="Train SelectorNet without frames (image bit 0).")] = False,
     seed: Annotated[int, typer.Option("--seed")] = 0,
 ) -> None:
@@ -41,7 +42,7 @@ def train(
         kg.close()
     try:
         report = run(
-            table, dest, vocab, epochs=epochs, lr=lr, batch=batch, val_sequences=val_sequences,
+            table, dest, vocab, epochs=epochs, lr=lr, batch=batch, val_sequences=val_sequences, refit_all=refit_all,
             data_dir=None if no_images else s.data, seed=seed, log=err,
         )  # fmt: skip
     except ValueError as e:

@@ -79,21 +79,74 @@ def _hide_context(torch: Any, x: Any, inputs: InputVocabulary, gen: Any) -> Any:
     return x
 
 
+def auto_epochs(n_windows: int, batch: int, steps: int = 4000, minimum: int = 300) -> int:
+    """Epochs for at least ``steps`` Adam steps: at lr 1e-4 a table of a few dozen windows needs them."""
+    per_epoch = max(1, -(-n_windows // batch))
+    return max(minimum, -(-steps // per_epoch))
+
+
+def fit(A: Arrays, inputs: InputVocabulary, n_stats: int, *, epochs: int, lr: float, batch: int, gen: Any) -> tuple[ParamNet, SelectorNet]:
+    """Adam on the masked MSE (ParamNet) and on the cross-entropy (SelectorNet); returns the NumPy models."""
+    import torch
+
+    # ---------------------------------------------------------------- ParamNet
+    pnet = torch_nets.paramnet_module((inputs.context_size + n_stats, 64, 64, len(inputs.params)))
+    popt = torch.optim.Adam(pnet.parameters(), lr=lr)
+    px = torch.from_numpy(np.concatenate([A.ctx, A.stats], 1))
+    py, pm = torch.from_numpy(A.y), torch.from_numpy(A.ymask)
+    keep = (pm.sum(1) > 0).nonzero().flatten()
+    for _ in range(epochs):
+        for b in keep[torch.randperm(len(keep), generator=gen)].split(batch):
+            x = px[b].clone()
+            x[:, : inputs.context_size] = _hide_context(torch, x[:, : inputs.context_size], inputs, gen)
+            popt.zero_grad()
+            ((((pnet(x) - py[b]) ** 2) * pm[b]).sum() / pm[b].sum().clamp(min=1.0)).backward()
+            popt.step()
+
+    # ---------------------------------------------------------------- SelectorNet
+    snet = torch_nets.selectornet_module(A.numeric.shape[1], len(inputs.extractors))
+    sopt = torch.optim.Adam(snet.parameters(), lr=lr)
+    sim, snum, slab = torch.from_numpy(A.images), torch.from_numpy(A.numeric), torch.from_numpy(A.labels)
+    labelled = (slab >= 0).nonzero().flatten()
+    c, s, e, m = inputs.context_size, n_stats, len(inputs.extractors), len(inputs.metrics)
+    a0, a1 = c + s + 1, c + s + 1 + e * m
+    for _ in range(epochs):
+        for b in labelled[torch.randperm(len(labelled), generator=gen)].split(batch):
+            im, nu = sim[b].clone(), snum[b].clone()
+            nu[:, :c] = _hide_context(torch, nu[:, :c], inputs, gen)
+            no_img = torch.rand(len(b), generator=gen) < P_HIDE_IMAGE
+            im[no_img] = 0.0
+            nu[no_img, c + s] = 0.0
+            hide = torch.rand(len(b), e, generator=gen) < P_HIDE_METRICS
+            mt = nu[:, a0:a1].reshape(len(b), e, m).clone()
+            mt[hide] = 0.0
+            bits = nu[:, a1:].clone()
+            bits[hide] = 0.0
+            nu[:, a0:a1], nu[:, a1:] = mt.reshape(len(b), -1), bits
+            sopt.zero_grad()
+            torch.nn.functional.cross_entropy(snet(im, nu), slab[b]).backward()
+            sopt.step()
+    return ParamNet(torch_nets.export(pnet)), SelectorNet(torch_nets.export(snet))
+
+
 def train(
     table: Path,
     out: Path,
     vocab: Vocabulary,
     *,
-    epochs: int = 300,
+    epochs: int | None = None,
     lr: float = 1e-4,
     batch: int = 8,
     val_sequences: Sequence[str] | None = None,
+    refit_all: bool = False,
     images: ImageSource | None = None,
     data_dir: Path | None = None,
     seed: int = 0,
     log: Callable[[str], None] = print,
 ) -> TrainReport:
-    """Train both networks on ``table`` and write the artifact to ``out``."""
+    """Train both networks on the training split of ``table``, validate on the held-out sequences, write
+    the artifact to ``out``. ``refit_all``: the shipped weights are then trained again, from scratch with
+    the same settings, on every window (the reported validation is the split's)."""
     import torch
 
     torch.manual_seed(seed)
@@ -108,62 +161,31 @@ def train(
         for w in windows:
             w.image = source(w)
     keys = tuple(sorted({k for w in windows for k in w.stats}))
-    scaler = Scaler.fit(keys, np.array([[w.stats.get(k, np.nan) for k in keys] for w in tr], np.float64))
+
+    def scaler_of(ws: Sequence[Window]) -> Scaler:
+        return Scaler.fit(keys, np.array([[w.stats.get(k, np.nan) for k in keys] for w in ws], np.float64))
+
+    scaler = scaler_of(tr)
     A, V = encode(tr, inputs, scaler), encode(va, inputs, scaler)
+    n_epochs = epochs or auto_epochs(len(tr), batch)
+    log(f"training on {len(tr)} windows, validating on {len(va)}: Adam lr {lr}, batch {batch}, {n_epochs} epochs")
     t0 = time.perf_counter()
-
-    # ---------------------------------------------------------------- ParamNet
-    n_in = inputs.context_size + len(keys)
-    pnet = torch_nets.paramnet_module((n_in, 64, 64, len(inputs.params)))
-    popt = torch.optim.Adam(pnet.parameters(), lr=lr)
-    px = torch.from_numpy(np.concatenate([A.ctx, A.stats], 1))
-    py, pm = torch.from_numpy(A.y), torch.from_numpy(A.ymask)
-    keep = (pm.sum(1) > 0).nonzero().flatten()
-
-    def pnet_loss(x: Any, y: Any, m: Any) -> Any:
-        return (((pnet(x) - y) ** 2) * m).sum() / m.sum().clamp(min=1.0)
-
-    for _ in range(epochs):
-        for b in keep[torch.randperm(len(keep), generator=gen)].split(batch):
-            x = px[b].clone()
-            x[:, : inputs.context_size] = _hide_context(torch, x[:, : inputs.context_size], inputs, gen)
-            popt.zero_grad()
-            pnet_loss(x, py[b], pm[b]).backward()
-            popt.step()
-
-    # ---------------------------------------------------------------- SelectorNet
-    snet = torch_nets.selectornet_module(A.numeric.shape[1], len(inputs.extractors))
-    sopt = torch.optim.Adam(snet.parameters(), lr=lr)
-    sim, snum, slab = torch.from_numpy(A.images), torch.from_numpy(A.numeric), torch.from_numpy(A.labels)
-    labelled = (slab >= 0).nonzero().flatten()
-    c, s, e, m = inputs.context_size, len(keys), len(inputs.extractors), len(inputs.metrics)
-    for _ in range(epochs):
-        for b in labelled[torch.randperm(len(labelled), generator=gen)].split(batch):
-            im, nu = sim[b].clone(), snum[b].clone()
-            nu[:, :c] = _hide_context(torch, nu[:, :c], inputs, gen)
-            no_img = torch.rand(len(b), generator=gen) < P_HIDE_IMAGE
-            im[no_img] = 0.0
-            nu[no_img, c + s] = 0.0
-            hide = torch.rand(len(b), e, generator=gen) < P_HIDE_METRICS
-            a0, a1 = c + s + 1, c + s + 1 + e * m
-            mt = nu[:, a0:a1].reshape(len(b), e, m).clone()
-            mt[hide] = 0.0
-            bits = nu[:, a1:].clone()
-            bits[hide] = 0.0
-            nu[:, a0:a1], nu[:, a1:] = mt.reshape(len(b), -1), bits
-            sopt.zero_grad()
-            torch.nn.functional.cross_entropy(snet(im, nu), slab[b]).backward()
-            sopt.step()
+    pnet, snet = fit(A, inputs, len(keys), epochs=n_epochs, lr=lr, batch=batch, gen=gen)
     train_s = time.perf_counter() - t0
-
-    metrics = evaluate_arrays(ParamNet(torch_nets.export(pnet)), SelectorNet(torch_nets.export(snet)), A, V, inputs)
+    metrics = evaluate_arrays(pnet, snet, A, V, inputs)
     metrics["train_seconds"] = round(train_s, 2)
+    trained_on = A
+    if refit_all:
+        scaler = scaler_of(windows)
+        trained_on = encode(windows, inputs, scaler)
+        log(f"refitting on all {len(windows)} windows")
+        pnet, snet = fit(trained_on, inputs, len(keys), epochs=n_epochs, lr=lr, batch=batch, gen=gen)
     sha = sha256_file(table)
     model = NeuralModel(
         inputs=inputs,
         scaler=scaler,
-        paramnet=ParamNet(torch_nets.export(pnet)),
-        selectornet=SelectorNet(torch_nets.export(snet)),
+        paramnet=pnet,
+        selectornet=snet,
         manifest={
             "version": new_version(sha),
             "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
@@ -174,12 +196,13 @@ def train(
                 "windows": {"train": len(tr), "validate": len(va), "all": len(windows)},
                 "sequences": sorted({w.seq_key for w in windows}),
                 "split": note,
+                "weights_trained_on": "all windows (refit after validation)" if refit_all else "the training split",
                 "with_image": sum(w.image is not None for w in windows),
             },
-            "training": {"optimizer": "Adam", "lr": lr, "batch": batch, "epochs": epochs, "seed": seed, "torch": torch.__version__},
+            "training": {"optimizer": "Adam", "lr": lr, "batch": batch, "epochs": n_epochs, "seed": seed, "torch": torch.__version__},
             "metrics": metrics,
             # ParamNet outputs that had a target in training; the advisor uses g(Θ, E) for the others
-            "paramnet_trained": [p.qualified for p, n in zip(inputs.params, A.ymask.sum(0), strict=True) if n > 0],
+            "paramnet_trained": [p.qualified for p, n in zip(inputs.params, trained_on.ymask.sum(0), strict=True) if n > 0],
         },
     )
     model.save(out)

@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from nfex_core.neural.dataset import read_table, split
+from nfex_core.neural.train import auto_epochs
 
 from .tablegen import make_table
 
@@ -54,7 +55,7 @@ def test_cli_train_writes_a_loadable_model(tmp_path: Path, store_path: Path, voc
     out = tmp_path / "model"
     p = subprocess.run(
         [sys.executable, "-m", "nfex_core.cli.main", "--store", str(store_path), "train", "--table", str(table),
-         "--out", str(out), "--epochs", "3", "--no-images", "--val-sequences", "00"],
+         "--out", str(out), "--epochs", "3", "--no-images", "--val-sequences", "00", "--refit-all"],
         capture_output=True, text=True, timeout=120,
     )  # fmt: skip
     assert p.returncode == 0, p.stderr
@@ -62,6 +63,12 @@ def test_cli_train_writes_a_loadable_model(tmp_path: Path, store_path: Path, voc
     assert "validate ['kitti/00']" in answer["split"]
     assert {"val_accuracy", "val_cross_entropy"} <= set(answer["validation"]["selectornet"])
     assert sorted(f.name for f in out.iterdir()) == ["manifest.json", "paramnet.npz", "selectornet.npz"]
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["data"]["weights_trained_on"].startswith("all windows") and manifest["training"]["epochs"] == 3
+
+
+def test_auto_epochs() -> None:
+    assert auto_epochs(24, 8) == 1334 and auto_epochs(10_000, 8) == 300
 
 
 def test_cli_train_missing_table_exits_2(tmp_path: Path, store_path: Path) -> None:
