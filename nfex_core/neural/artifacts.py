@@ -67,9 +67,9 @@ class NeuralModel:
         manifest = dict(self.manifest)
         manifest.update(format=FORMAT, inputs=self.inputs.as_dict(), scaler=self.scaler.as_dict())
         if self.paramnet is not None:
-            np.savez_compressed(path / "paramnet.npz", **self.paramnet.weights)
+            np.savez_compressed(path / "paramnet.npz", **self.paramnet.weights)  # type: ignore[arg-type]
         if self.selectornet is not None:
-            np.savez_compressed(path / "selectornet.npz", **self.selectornet.weights)
+            np.savez_compressed(path / "selectornet.npz", **self.selectornet.weights)  # type: ignore[arg-type]
         (path / MANIFEST).write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n")
         self.manifest, self.path = manifest, path
         return path

@@ -73,7 +73,7 @@ def read_table(path: Path) -> list[Window]:
                     start=int(float(row["window_start"])),
                     end=int(float(row.get("window_end") or row["window_start"])),
                     context={k[4:]: (v or None) for k, v in row.items() if k.startswith("ctx.")},
-                    stats={k[5:]: x for k, v in row.items() if k.startswith("stat.") and (x := _float(v)) is not None},
+                    stats={k[5:]: s for k, v in row.items() if k.startswith("stat.") and (s := _float(v)) is not None},
                     pixels=int(float(row.get("width") or 0) * float(row.get("height") or 0)),
                 )
             failed = _flag(row, "failed")
@@ -122,8 +122,8 @@ def default_image_source(data_dir: Path) -> ImageSource:
 
     def loaders() -> tuple[Any, Any] | None:
         try:
-            from ..datasets import open_sequence  # type: ignore[attr-defined]
-            from ..datasets.corruptions import corrupt  # type: ignore[import-not-found]
+            from ..datasets import open_sequence
+            from ..datasets.corruptions import corrupt
         except ImportError:
             return None
         return open_sequence, corrupt

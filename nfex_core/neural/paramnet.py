@@ -45,7 +45,7 @@ class ParamNet:
         wt, b = self._wt, self._b  # type: ignore[attr-defined]
         h = np.maximum(x @ wt[0] + b[0], 0.0)
         h = np.maximum(h @ wt[1] + b[1], 0.0)
-        return h @ wt[2] + b[2]  # type: ignore[no-any-return]
+        return h @ wt[2] + b[2]
 
 
 def decode(

@@ -161,7 +161,7 @@ def frame_stats(image: np.ndarray | None) -> dict[str, float] | None:
     if image is None:
         return None
     try:
-        from ..vision.context import frame_statistics  # type: ignore[attr-defined]
+        from ..vision.context import frame_statistics
     except ImportError:
         return None
     return dict(frame_statistics(image))
