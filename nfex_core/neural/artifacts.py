@@ -50,6 +50,13 @@ class NeuralModel:
         listed = self.manifest.get("paramnet_trained")
         return frozenset(listed if listed is not None else (p.qualified for p in self.inputs.params))
 
+    @cached_property
+    def grid(self) -> dict[int, np.ndarray]:
+        """Output index → the normalised values the sweep measured for that parameter (none: no snapping)."""
+        listed = self.manifest.get("paramnet_grid") or {}
+        index = {p.qualified: i for i, p in enumerate(self.inputs.params)}
+        return {index[q]: np.asarray(sorted(v), np.float64) for q, v in listed.items() if q in index and v}
+
     def check(self, vocab: Vocabulary) -> str | None:
         """None when the graph's vocabulary is the one the model was trained on; else the reason it is not."""
         return self.inputs.mismatch(InputVocabulary.from_vocabulary(vocab))

@@ -49,17 +49,28 @@ class ParamNet:
 
 
 def decode(
-    inputs: InputVocabulary, u: np.ndarray, spec: ExtractorSpec, pixels: int | None = None
+    inputs: InputVocabulary,
+    u: np.ndarray,
+    spec: ExtractorSpec,
+    pixels: int | None = None,
+    grid: Mapping[int, np.ndarray] | None = None,
 ) -> dict[str, tuple[Value, float]]:
     """ParamNet's outputs for one extractor → {parameter: (θ′ clamped to the graph, raw value)}.
 
-    Count parameters are learned at 640×480 and scaled by pixels / (640×480) when the frame's size is known.
+    With ``grid`` (output index → the normalised values the sweep measured), each output is first
+    snapped to the nearest measured value, so the network never proposes a value nobody measured
+    (SIFT's nfeatures = 0 means "no limit": 0 and 1000 must not average to 20). Count parameters are
+    learned at 640×480 and scaled by pixels / (640×480) when the frame's size is known.
     """
     out: dict[str, tuple[Value, float]] = {}
     for i, p in inputs.params_of(spec.name):
         if p.name not in spec.parameters:
             continue
-        raw = p.from_unit(float(u[i]))
+        ui = float(u[i])
+        if grid is not None and i in grid:
+            g = grid[i]
+            ui = float(g[np.abs(g - ui).argmin()])
+        raw = p.from_unit(ui)
         if p.resolution and pixels:
             raw *= pixels / REFERENCE_PIXELS
         out[p.name] = (spec.parameters[p.name].clamp(raw), raw)

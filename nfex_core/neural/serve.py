@@ -81,7 +81,7 @@ class NeuralStep:
         )
         adjustments = []
         trained = self.model.trained_params
-        for name, (value, raw) in decode(self.model.inputs, self._u, spec, pixels).items():
+        for name, (value, raw) in decode(self.model.inputs, self._u, spec, pixels, self.model.grid).items():
             if f"{spec.name}.{name}" not in trained:
                 continue
             before = theta[name]

@@ -203,6 +203,12 @@ def train(
             "metrics": metrics,
             # ParamNet outputs that had a target in training; the advisor uses g(Θ, E) for the others
             "paramnet_trained": [p.qualified for p, n in zip(inputs.params, trained_on.ymask.sum(0), strict=True) if n > 0],
+            # the normalised values measured per parameter: served outputs snap to the nearest
+            "paramnet_grid": {
+                p.qualified: sorted({round(float(v), 9) for v in trained_on.y[trained_on.ymask[:, j] > 0, j]})
+                for j, p in enumerate(inputs.params)
+                if trained_on.ymask[:, j].any()
+            },
         },
     )
     model.save(out)

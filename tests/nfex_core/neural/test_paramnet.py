@@ -50,3 +50,16 @@ def test_decoded_params_are_valid_in_the_graph(vocab, u: list[float], pixels: in
         assert set(out) == {p.name for _, p in inputs.params_of(x)}
         for name, (value, _raw) in out.items():
             assert spec.parameter(name).validate(value) == value
+
+
+@settings(deadline=None, max_examples=50)
+@given(st.lists(st.floats(-1.0, 2.0, allow_nan=False), min_size=64, max_size=64))
+def test_grid_snaps_to_measured_values(vocab, u: list[float]) -> None:  # type: ignore[no-untyped-def]
+    """With a grid, every θ′ is one of the values the sweep measured (here: two per parameter)."""
+    inputs = InputVocabulary.from_vocabulary(vocab)
+    grid = {i: np.array([0.0, 0.5]) for i in range(len(inputs.params))}
+    arr = np.array(u[: len(inputs.params)], np.float32)
+    for x, spec in vocab.extractors.items():
+        for name, (value, _raw) in decode(inputs, arr, spec, None, grid).items():
+            p = next(q for _, q in inputs.params_of(x) if q.name == name)
+            assert value in {spec.parameter(name).clamp(p.from_unit(g)) for g in (0.0, 0.5)}

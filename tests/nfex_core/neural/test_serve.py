@@ -108,3 +108,24 @@ def test_extractors_the_sweep_did_not_measure_keep_the_symbolic_params(trained, 
     by = {c.extractor: c for c in s.candidates}
     assert by["AKAZE"].params == symbolic_params(kg, "AKAZE", DARK)
     assert by["ORB"].params != symbolic_params(kg, "ORB", DARK)
+
+
+def test_served_values_are_values_the_sweep_measured(trained, kg: KnowledgeGraph) -> None:  # type: ignore[no-untyped-def]
+    import csv
+    import json
+
+    report, model = trained
+    measured: dict[str, set[object]] = {}
+    with open(model.manifest["data"]["table"]) as f:
+        for row in csv.DictReader(f):
+            for k, v in json.loads(row["params"]).items():
+                measured.setdefault(f"{row['extractor']}.{k}", set()).add(v)
+    s = Advisor(kg, models=model.path, neural="paramnet").select(DARK)
+    checked = 0
+    for c in s.candidates:
+        for a in c.adjustments:
+            q = f"{c.extractor}.{a.parameter}"
+            if not kg.vocabulary().extractor(c.extractor).parameter(a.parameter).scales_with_resolution:
+                assert any(abs(float(a.after) - float(v)) <= 1e-6 * max(1.0, abs(float(v))) for v in measured[q]), q  # type: ignore[arg-type]
+                checked += 1
+    assert checked >= 10
