@@ -51,11 +51,16 @@ class NeuralModel:
         return frozenset(listed if listed is not None else (p.qualified for p in self.inputs.params))
 
     @cached_property
-    def grid(self) -> dict[int, np.ndarray]:
-        """Output index → the normalised values the sweep measured for that parameter (none: no snapping)."""
+    def grid(self) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+        """Output index → (normalised, actual) values the sweep measured for that parameter (at 640×480
+        for count parameters); ParamNet's outputs snap to the nearest. Absent: no snapping."""
         listed = self.manifest.get("paramnet_grid") or {}
-        index = {p.qualified: i for i, p in enumerate(self.inputs.params)}
-        return {index[q]: np.asarray(sorted(v), np.float64) for q, v in listed.items() if q in index and v}
+        out: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        for i, p in enumerate(self.inputs.params):
+            values = sorted(float(v) for v in listed.get(p.qualified, ()))
+            if values:
+                out[i] = (np.array([p.to_unit(v) for v in values]), np.array(values))
+        return out
 
     def check(self, vocab: Vocabulary) -> str | None:
         """None when the graph's vocabulary is the one the model was trained on; else the reason it is not."""

@@ -114,16 +114,18 @@ class InputVocabulary:
     def params_of(self, extractor: str) -> list[tuple[int, ParamScale]]:
         return [(i, p) for i, p in enumerate(self.params) if p.extractor == extractor]
 
-    def encode_params(self, extractor: str, theta: Mapping[str, Any], pixels: int | None) -> dict[int, float]:
-        """θ of one extractor → {output index: u in [0, 1]}, count parameters at the reference resolution."""
+    def reference_params(self, extractor: str, theta: Mapping[str, Any], pixels: int | None) -> dict[int, float]:
+        """θ of one extractor → {output index: value}, count parameters at the reference 640×480."""
         out: dict[int, float] = {}
         for i, p in self.params_of(extractor):
             if p.name in theta:
                 v = float(theta[p.name])
-                if p.resolution and pixels:
-                    v *= REFERENCE_PIXELS / pixels
-                out[i] = p.to_unit(v)
+                out[i] = v * REFERENCE_PIXELS / pixels if p.resolution and pixels else v
         return out
+
+    def encode_params(self, extractor: str, theta: Mapping[str, Any], pixels: int | None) -> dict[int, float]:
+        """θ of one extractor → {output index: u in [0, 1]} (ParamNet's targets)."""
+        return {i: self.params[i].to_unit(v) for i, v in self.reference_params(extractor, theta, pixels).items()}
 
     def as_dict(self) -> dict[str, Any]:
         return {

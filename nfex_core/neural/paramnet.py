@@ -53,12 +53,12 @@ def decode(
     u: np.ndarray,
     spec: ExtractorSpec,
     pixels: int | None = None,
-    grid: Mapping[int, np.ndarray] | None = None,
+    grid: Mapping[int, tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> dict[str, tuple[Value, float]]:
     """ParamNet's outputs for one extractor → {parameter: (θ′ clamped to the graph, raw value)}.
 
-    With ``grid`` (output index → the normalised values the sweep measured), each output is first
-    snapped to the nearest measured value, so the network never proposes a value nobody measured
+    With ``grid`` (output index → (normalised, actual) values the sweep measured), each output is
+    snapped to the nearest measured value (nearest in normalised units), so the network never proposes a value nobody measured
     (SIFT's nfeatures = 0 means "no limit": 0 and 1000 must not average to 20). Count parameters are
     learned at 640×480 and scaled by pixels / (640×480) when the frame's size is known.
     """
@@ -66,11 +66,11 @@ def decode(
     for i, p in inputs.params_of(spec.name):
         if p.name not in spec.parameters:
             continue
-        ui = float(u[i])
         if grid is not None and i in grid:
-            g = grid[i]
-            ui = float(g[np.abs(g - ui).argmin()])
-        raw = p.from_unit(ui)
+            units, values = grid[i]
+            raw = float(values[np.abs(units - float(u[i])).argmin()])
+        else:
+            raw = p.from_unit(float(u[i]))
         if p.resolution and pixels:
             raw *= pixels / REFERENCE_PIXELS
         out[p.name] = (spec.parameters[p.name].clamp(raw), raw)

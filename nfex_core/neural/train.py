@@ -204,15 +204,21 @@ def train(
             # ParamNet outputs that had a target in training; the advisor uses g(Θ, E) for the others
             "paramnet_trained": [p.qualified for p, n in zip(inputs.params, trained_on.ymask.sum(0), strict=True) if n > 0],
             # the normalised values measured per parameter: served outputs snap to the nearest
-            "paramnet_grid": {
-                p.qualified: sorted({round(float(v), 9) for v in trained_on.y[trained_on.ymask[:, j] > 0, j]})
-                for j, p in enumerate(inputs.params)
-                if trained_on.ymask[:, j].any()
-            },
+            "paramnet_grid": measured_grid(windows if refit_all else tr, inputs),
         },
     )
     model.save(out)
     return TrainReport(out, note, {"train": len(tr), "validate": len(va)}, metrics)
+
+
+def measured_grid(windows: Sequence[Window], inputs: InputVocabulary) -> dict[str, list[float]]:
+    """Per parameter, the values among the best configurations (count parameters at 640×480)."""
+    grid: dict[str, set[float]] = {}
+    for w in windows:
+        for x, theta in w.best_params.items():
+            for i, v in inputs.reference_params(x, theta, w.pixels or None).items():
+                grid.setdefault(inputs.params[i].qualified, set()).add(round(v, 9))
+    return {q: sorted(vs) for q, vs in sorted(grid.items())}
 
 
 def evaluate_arrays(pnet: ParamNet, snet: SelectorNet, A: Arrays, V: Arrays, inputs: InputVocabulary) -> dict[str, Any]:

@@ -57,7 +57,7 @@ def test_decoded_params_are_valid_in_the_graph(vocab, u: list[float], pixels: in
 def test_grid_snaps_to_measured_values(vocab, u: list[float]) -> None:  # type: ignore[no-untyped-def]
     """With a grid, every θ′ is one of the values the sweep measured (here: two per parameter)."""
     inputs = InputVocabulary.from_vocabulary(vocab)
-    grid = {i: np.array([0.0, 0.5]) for i in range(len(inputs.params))}
+    grid = {i: (np.array([0.0, 0.5]), np.array([p.from_unit(0.0), p.from_unit(0.5)])) for i, p in enumerate(inputs.params)}
     arr = np.array(u[: len(inputs.params)], np.float32)
     for x, spec in vocab.extractors.items():
         for name, (value, _raw) in decode(inputs, arr, spec, None, grid).items():
