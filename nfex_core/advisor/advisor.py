@@ -19,6 +19,7 @@ import threading
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -93,7 +94,7 @@ class Advisor:
         score_max_side: int = 640,
         poll_interval_s: float = 1.0,
         neural: str | None = None,
-        models: Any = None,
+        models: Path | str | None = None,
     ) -> None:
         self.kg = kg
         self.neural = ModelHolder(models, neural)
