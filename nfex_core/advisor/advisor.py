@@ -172,8 +172,9 @@ class Advisor:
         scored, state, mode = self._score(snap, decision, image, previous, nn)
         if nn.selectornet:
             probs = nn.probabilities(image, {c.extractor: c.metrics for c in scored}, decision.candidates)
-            scored = [replace(c, score=probs[c.extractor], evidence={**c.evidence, "f": c.score}) for c in scored]
-            mode = "selectornet"
+            if probs:  # else no candidate is one the network was trained on: F_metrics decides
+                scored = [replace(c, score=probs.get(c.extractor, 0.0), evidence={**c.evidence, "f": c.score}) for c in scored]
+                mode = "selectornet"
         lap("selection")
         best = max(scored, key=lambda c: (c.score if c.score is not None else -np.inf, -_cost(decision, c.extractor)))
         spec = snap.vocab.extractor(best.extractor)

@@ -51,6 +51,18 @@ class NeuralModel:
         return frozenset(listed if listed is not None else (p.qualified for p in self.inputs.params))
 
     @cached_property
+    def context_seen(self) -> dict[str, frozenset[str]] | None:
+        """Per dimension, the values the training windows had (None: the manifest does not say)."""
+        seen = self.manifest.get("context_seen")
+        return {d: frozenset(v) for d, v in seen.items()} if seen is not None else None
+
+    @cached_property
+    def selector_extractors(self) -> frozenset[str]:
+        """Extractors SelectorNet saw measured in training (all, for a manifest that does not say)."""
+        listed = self.manifest.get("selectornet_extractors")
+        return frozenset(listed if listed is not None else self.inputs.extractors)
+
+    @cached_property
     def grid(self) -> dict[int, tuple[np.ndarray, np.ndarray]]:
         """Output index → (normalised, actual) values the sweep measured for that parameter (at 640×480
         for count parameters); ParamNet's outputs snap to the nearest. Absent: no snapping."""

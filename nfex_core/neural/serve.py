@@ -59,6 +59,9 @@ class NeuralStep:
     def prepare(self, values: Mapping[str, str | None], stats: Mapping[str, float] | None) -> None:
         """Encode E and the frame statistics once, and run ParamNet once for every extractor's Θ′."""
         assert self.model is not None
+        seen = self.model.context_seen
+        if seen is not None:  # a value never seen in training enters as "unknown", its weights are untrained
+            values = {d: (v if v in seen.get(d, ()) else None) for d, v in values.items()}
         ctx = self.model.inputs.context_onehot(values)
         self._stats = self.model.scaler.transform(stats)
         self._ctx = ctx
@@ -93,14 +96,17 @@ class NeuralStep:
     def probabilities(
         self, image: np.ndarray | None, metrics: Mapping[str, Mapping[str, float]], candidates: Sequence[str]
     ) -> dict[str, float]:
-        """P(α | frame, E, metrics) over the candidates C(E); pruned extractors are masked out."""
+        """P(α | frame, E, metrics) over the candidates C(E) that the sweep measured; pruned extractors
+        (and extractors absent from the training data, whose outputs are untrained) are masked out."""
         assert self.model is not None and self.model.selectornet is not None
         assert self._ctx is not None and self._stats is not None
         inp = self.model.inputs
+        known = self.model.selector_extractors
         net = self.model.selectornet
         img = prepare_image(image) if image is not None else np.zeros((48, 160), np.float32)
+        metrics = {x: m for x, m in metrics.items() if x in known}
         num = numeric_input(self._ctx, self._stats, image is not None, metrics, inp.extractors, inp.metrics)
-        return masked_probabilities(net.logits(img, num), inp.extractors, candidates)
+        return masked_probabilities(net.logits(img, num), inp.extractors, [x for x in candidates if x in known])
 
 
 class ModelHolder:

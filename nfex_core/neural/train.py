@@ -205,6 +205,12 @@ def train(
             "paramnet_trained": [p.qualified for p, n in zip(inputs.params, trained_on.ymask.sum(0), strict=True) if n > 0],
             # the normalised values measured per parameter: served outputs snap to the nearest
             "paramnet_grid": measured_grid(windows if refit_all else tr, inputs),
+            # what the inputs covered: unseen context values are served as unknown, unmeasured extractors masked
+            "context_seen": {
+                d: sorted({v for w in (windows if refit_all else tr) if (v := w.context.get(d))})
+                for d, _ in inputs.dimensions
+            },
+            "selectornet_extractors": sorted({x for w in (windows if refit_all else tr) for x in w.best_params}),
         },
     )
     model.save(out)

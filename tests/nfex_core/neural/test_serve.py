@@ -129,3 +129,33 @@ def test_served_values_are_values_the_sweep_measured(trained, kg: KnowledgeGraph
                 assert any(abs(float(a.after) - float(v)) <= 1e-6 * max(1.0, abs(float(v))) for v in measured[q]), q  # type: ignore[arg-type]
                 checked += 1
     assert checked >= 10
+
+
+def _edited(model, tmp_path: Path, **changes: object) -> Path:  # type: ignore[no-untyped-def]
+    import json
+    import shutil
+
+    d = tmp_path / "edited"
+    shutil.copytree(model.path, d)
+    manifest = json.loads((d / "manifest.json").read_text())
+    manifest.update(changes)
+    (d / "manifest.json").write_text(json.dumps(manifest))
+    return d
+
+
+def test_selector_never_picks_an_extractor_absent_from_training(trained, kg: KnowledgeGraph, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    _, model = trained
+    d = _edited(model, tmp_path, selectornet_extractors=["AKAZE", "BRISK", "SIFT"])
+    s = Advisor(kg, models=d, neural="selectornet").select(DARK)  # ORB wins the dark windows when it may
+    assert s.extractor != "ORB"
+    assert next(c for c in s.candidates if c.extractor == "ORB").score == 0.0
+
+
+def test_context_values_unseen_in_training_enter_as_unknown(trained, kg: KnowledgeGraph, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    _, model = trained
+    seen = {**model.manifest["context_seen"], "light": ["bright"]}
+    d = _edited(model, tmp_path, context_seen=seen)
+    a = Advisor(kg, models=d, neural="selectornet")
+    unknown = {k: v for k, v in DARK.items() if k != "light"}
+    assert [c.score for c in a.select(DARK).candidates] == [c.score for c in a.select(unknown).candidates]
+    assert [c.score for c in a.select(DARK).candidates] != [c.score for c in Advisor(kg, models=model.path, neural="selectornet").select(DARK).candidates]
