@@ -149,9 +149,23 @@ def _flush(kg: KnowledgeGraph, csv_path: Path, rows: list[dict[str, Any]], pendi
     rows.extend(pending)
     table.write(csv_path, rows)
     n = len(pending)
-    kg.add(measurement_graph(pending, vocab, run), author=author, message=f"sweep {run.id}: {n} measurements")
+    _replace(kg, pending, vocab, run, author, f"sweep {run.id}: {n} measurements")
     pending.clear()
     return n
+
+
+def _replace(kg: KnowledgeGraph, rows: Sequence[dict[str, Any]], vocab: Any, run: RunInfo, author: str, message: str) -> None:
+    """One transaction: the rows' Measurements replace any earlier ones of the same cells (a re-measured
+    cell must not carry two values of a functional property)."""
+    from ..kg.changes import ChangeSet, graph_triples
+
+    iris = " ".join(f"<{measurement_iri(str(r['cell']))}>" for r in rows)
+    old = kg.construct(
+        f"""CONSTRUCT {{ ?m ?p ?o . ?r ?rp ?ro }} WHERE {{ VALUES ?m {{ {iris} }}
+            {{ ?m ?p ?o }} UNION {{ ?m nfex:hasMetricResult ?r . ?r ?rp ?ro }} }}"""
+    )
+    new = graph_triples(measurement_graph(rows, vocab, run))
+    kg.commit(ChangeSet.of(added=new, removed=graph_triples(old) - new), author=author, message=message)
 
 
 def _sync_graph(kg: KnowledgeGraph, rows: Sequence[dict[str, Any]], vocab: Any, run: RunInfo, author: str,
@@ -163,7 +177,7 @@ def _sync_graph(kg: KnowledgeGraph, rows: Sequence[dict[str, Any]], vocab: Any, 
     missing = [r for r in rows if str(measurement_iri(r["cell"])) not in have]
     for i in range(0, len(missing), batch):
         part = missing[i : i + batch]
-        kg.add(measurement_graph(part, vocab, run), author=author, message=f"sweep {run.id}: {len(part)} measurements (resumed)")
+        _replace(kg, part, vocab, run, author, f"sweep {run.id}: {len(part)} measurements (resumed)")
     return len(missing)
 
 
