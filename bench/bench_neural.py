@@ -112,9 +112,17 @@ def main() -> None:
     import os
 
     env = {**os.environ, "PYTHONPATH": str(REPO), "NFEX_MODELS": str(args.models)}
-    select_ms = wall([sys.executable, "-m", "nfex_core.cli.main", "--store", store, "select", "--context", "agent=car"], args.repeat, env)
-    symbolic_ms = wall([sys.executable, "-m", "nfex_core.cli.main", "--store", store, "select", "--context", "agent=car"], args.repeat, {**env, "NFEX_NEURAL": "symbolic"})
-    torch_ms = wall([sys.executable, "-c", "import torch"], args.repeat)
+    select = [sys.executable, "-m", "nfex_core.cli.main", "--store", store, "select", "--context", "agent=car"]
+    cmds = {
+        "both": (select, env),
+        "symbolic": (select, {**env, "NFEX_NEURAL": "symbolic"}),
+        "torch": ([sys.executable, "-c", "import torch"], None),
+    }
+    times: dict[str, list[float]] = {k: [] for k in cmds}
+    for _ in range(args.repeat):  # interleaved, so a busy moment of the host hits all three alike
+        for k, (cmd, e) in cmds.items():
+            times[k].append(wall(cmd, 1, e))
+    select_ms, symbolic_ms, torch_ms = (statistics.median(times[k]) for k in ("both", "symbolic", "torch"))
     print(f"process start → first answer, nfex select --context agent=car (both nets)  {select_ms:8.1f} ms")
     print(f"process start → first answer, same with NFEX_NEURAL=symbolic               {symbolic_ms:8.1f} ms")
     print(f"process start → python -c 'import torch'                                  {torch_ms:8.1f} ms")
