@@ -159,3 +159,24 @@ def test_context_values_unseen_in_training_enter_as_unknown(trained, kg: Knowled
     unknown = {k: v for k, v in DARK.items() if k != "light"}
     assert [c.score for c in a.select(DARK).candidates] == [c.score for c in a.select(unknown).candidates]
     assert [c.score for c in a.select(DARK).candidates] != [c.score for c in Advisor(kg, models=model.path, neural="selectornet").select(DARK).candidates]
+
+
+def test_nfex_select_reports_the_model(trained, store_path: Path, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    """A real `nfex select` process answers with the model (and without importing torch)."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    _, model = trained
+    code = (
+        "import sys, runpy; sys.argv = ['nfex', '--store', sys.argv[1], 'select', '--context', 'agent=car,light=dark', '--json'];"
+        "import nfex_core.cli.main as m\ntry:\n    m.main()\nfinally:\n    print('TORCH' if 'torch' in sys.modules else 'NOTORCH', file=sys.stderr)"
+    )
+    env = {**os.environ, "NFEX_MODELS": str(model.path), "NFEX_NEURAL": "both"}
+    p = subprocess.run([sys.executable, "-c", code, str(store_path)], capture_output=True, text=True, timeout=120, env=env)
+    assert p.returncode == 0, p.stderr
+    assert p.stderr.strip().endswith("NOTORCH")
+    answer = json.loads(p.stdout)
+    assert answer["versions"]["model"]["used"] == "paramnet+selectornet"
+    assert answer["versions"]["model"]["version"] == model.version and answer["mode"] == "selectornet"
