@@ -59,6 +59,7 @@ def test_modes(trained, kg: KnowledgeGraph, mode: str, used: str) -> None:  # ty
         assert s.params != symbolic_params(kg, s.extractor, DARK)
 
 
+@pytest.mark.slow  # a SHACL-checked commit on the seeded graph
 def test_changed_vocabulary_falls_back_and_says_so(trained, kg: KnowledgeGraph) -> None:  # type: ignore[no-untyped-def]
     _, model = trained
     a = Advisor(kg, models=model.path)

@@ -50,6 +50,7 @@ def test_read_table_labels(tmp_path: Path, vocab) -> None:  # type: ignore[no-un
     assert all(w.context["motion"] is None for w in windows)
 
 
+@pytest.mark.slow  # a real nfex process that seeds nothing but trains
 def test_cli_train_writes_a_loadable_model(tmp_path: Path, store_path: Path, vocab) -> None:  # type: ignore[no-untyped-def]
     table = make_table(tmp_path / "t.csv", vocab, windows=4)
     out = tmp_path / "model"
