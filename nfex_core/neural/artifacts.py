@@ -74,6 +74,19 @@ class NeuralModel:
                 out[i] = (np.array([p.to_unit(v) for v in values]), np.array(values))
         return out
 
+    def validation_gates(self) -> dict[str, str]:
+        """The networks whose validation did worse than the trivial baseline, with the numbers."""
+        m = self.manifest.get("metrics") or {}
+        out: dict[str, str] = {}
+        pn, sn = m.get("paramnet") or {}, m.get("selectornet") or {}
+        if "val_mse" in pn and pn["val_mse"] > pn.get("val_mse_train_mean", float("inf")):
+            out["paramnet"] = f"validation MSE {pn['val_mse']} > {pn['val_mse_train_mean']} of predicting the training mean"
+        if "val_accuracy" in sn and sn["val_accuracy"] < sn.get("val_accuracy_majority", 0.0):
+            out["selectornet"] = (
+                f"validation accuracy {sn['val_accuracy']} < {sn['val_accuracy_majority']} of always answering {sn.get('majority')}"
+            )
+        return out
+
     def check(self, vocab: Vocabulary) -> str | None:
         """None when the graph's vocabulary is the one the model was trained on; else the reason it is not."""
         return self.inputs.mismatch(InputVocabulary.from_vocabulary(vocab))

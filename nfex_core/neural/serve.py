@@ -5,6 +5,11 @@ Modes (the paper's ablations): ``symbolic`` (g(Θ, E) and F_metrics only), ``par
 ``default`` model in it) is loaded on first use, once, and checked against each graph version's
 vocabulary; a missing model or a changed vocabulary falls back to symbolic and the Selection says why.
 
+In ``both``, a network whose validation is worse than its trivial baseline (ParamNet: MSE above that
+of predicting the training mean; SelectorNet: accuracy below always answering the training majority)
+is not used, and the Selection says so (``versions.model.skipped``); ``paramnet`` and ``selectornet``
+force their network, for the ablations.
+
 Θ′ is the network's, as in the paper (rules' factors are not multiplied on top: the network learned
 from the sweep's best configurations in that context, so the context would count twice); the graph
 still bounds it: each θ′ is clamped to its range and rounded to its datatype, and the rules still
@@ -158,6 +163,11 @@ class ModelHolder:
             return NeuralStep(None, False, False, {**info, "used": "symbolic", "fallback": self._checked[1]})
         p = self.mode in ("paramnet", "both") and model.paramnet is not None
         s = self.mode in ("selectornet", "both") and model.selectornet is not None
+        if self.mode == "both":  # the default uses a network only where validation shows it earns its place
+            gates = model.validation_gates()
+            p, s = p and "paramnet" not in gates, s and "selectornet" not in gates
+            if gates:
+                info["skipped"] = gates
         used = "+".join(n for n, on in (("paramnet", p), ("selectornet", s)) if on) or "symbolic"
         return NeuralStep(model, p, s, {**info, "used": used, "load_ms": round(self.load_ms or 0.0, 3)})
 
