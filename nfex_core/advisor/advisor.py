@@ -62,17 +62,6 @@ class FrameState:
     features: dict[str, Any]
 
 
-def to_grey(frame: np.ndarray) -> np.ndarray:
-    import cv2
-
-    if frame.ndim == 3:
-        code = cv2.COLOR_BGRA2GRAY if frame.shape[2] == 4 else cv2.COLOR_BGR2GRAY
-        frame = cv2.cvtColor(frame, code)
-    if frame.dtype != np.uint8:
-        frame = np.clip(frame, 0, 255).astype(np.uint8)
-    return frame
-
-
 def downscale(image: np.ndarray, max_side: int) -> np.ndarray:
     import cv2
 
@@ -153,7 +142,11 @@ class Advisor:
 
         snap = self.snapshot()
         given = snap.vocab.check_context(context or {})
-        image = to_grey(frame) if frame is not None else None
+        image = None
+        if frame is not None:
+            from ..vision.registry import as_grey_u8  # imports cv2: only when a frame comes
+
+            image = as_grey_u8(frame)
         lap("snapshot")
         entries, values = self._conditions(snap.vocab, given, image, previous)
         lap("conditions")

@@ -72,6 +72,13 @@ def main(argv: list[str] | None = None) -> None:
     except click.ClickException as e:
         e.show()
         sys.exit(2)
+    except typer.exceptions.TyperException as e:  # typer 0.29 raises usage errors from its bundled click
+        show = getattr(e, "show", None)
+        if callable(show):
+            show()
+        else:
+            err(f"nfex: {e}")
+        sys.exit(2)
     except NfexError as e:
         if debug:
             traceback.print_exc()

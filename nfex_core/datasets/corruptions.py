@@ -5,14 +5,14 @@ known condition at a known severity s ∈ [0, 1], labelling every frame's contex
 |---------------|---------------------------------------------------------------------------------|---------------------|
 | dark          | photons = full_well · g · I^γ, g = 1 − 0.9√s, γ = 1 + 1.2s, full_well = 50 + 950(1 − s); Poisson(photons)/full_well + N(0, (0.01s)²) | light = dark        |
 | overexposed   | min(1, (1 + 3s) · I^(1/(1 + s))) + N(0, (0.005s)²)                                  | light = bright      |
-| motion_blur   | line kernel of length s·(30 px + ‖f‖) along the frame's image motion f           | motion = fast       |
+| motion_blur   | per tile of a 2×3 grid, a line kernel of length s·(30 px + ‖f‖) along the tile's image motion f, tiles blended bilinearly | motion = fast |
 | low_texture   | defocus (Gaussian σ = 0.5 + 4s px), contrast × (1 − 0.8s) about the mean         | texture = low       |
 | glare         | 1 + round(4s) specular blobs, radius (0.03 + 0.1s)·min(W, H), saturated cores    | reflectance = reflective |
 
-The image motion f of frame i is the median sparse optical flow (pyramidal Lucas–Kanade on
-Shi–Tomasi corners) from frame i to i+1 (i−1 → i for the last frame); where too few corners track,
-it is the motion of the principal point predicted by the ground-truth poses and intrinsics for a
-scene ``FALLBACK_DEPTH_M`` metres away. Glare blobs sit at sequence-fixed positions that drift
+The image motion f of a tile of frame i is the median sparse optical flow (pyramidal Lucas–Kanade
+on Shi–Tomasi corners) in that tile from frame i to i+1 (i−1 → i for the last frame); where too few
+corners track, it is the motion of the tile centre predicted by the ground-truth poses and
+intrinsics for a scene ``FALLBACK_DEPTH_M`` metres away. Glare blobs sit at sequence-fixed positions that drift
 slowly with the frame index. A frame's noise comes from ``default_rng((seed, frame.index, k))``, so
 it is the same whatever order frames are read in and however the sequence was sliced (before or
 after corrupting; only motion blur on the last frame of a sequence sliced *before* corrupting
@@ -36,6 +36,7 @@ LABELS: dict[str, dict[str, str]] = {
 }
 NAMES = tuple(LABELS)
 FALLBACK_DEPTH_M = 10.0
+BLUR_GRID = (2, 3)  # rows, cols of tiles with their own blur direction (forward motion is radial)
 
 
 def _to_u8(x: np.ndarray) -> np.ndarray:
@@ -84,14 +85,31 @@ def line_kernel(length: float, angle: float) -> np.ndarray:
     return k / k.sum()
 
 
-def motion_blur(image: np.ndarray, s: float, flow: np.ndarray) -> np.ndarray:
+def motion_blur(image: np.ndarray, s: float, field: np.ndarray) -> np.ndarray:
+    """Blur each tile of a (rows, cols) grid along its flow vector ``field[r, c]`` (pixels per frame),
+    blending the tiles' results with bilinear weights between tile centres."""
     import cv2
 
-    length = s * (30.0 + float(np.linalg.norm(flow)))
-    if length < 1.0:
-        return image.copy()
-    angle = float(np.arctan2(flow[1], flow[0])) if np.linalg.norm(flow) > 1e-6 else 0.0
-    out = cv2.filter2D(image.astype(np.float64), -1, line_kernel(length, angle), borderType=cv2.BORDER_REFLECT)
+    field = np.asarray(field, dtype=float)
+    if field.ndim == 1:  # one vector for the whole image
+        field = field.reshape(1, 1, 2)
+    h, w = image.shape
+    img = image.astype(np.float64)
+    out = np.zeros_like(img)
+    rows, cols = field.shape[:2]
+    for r in range(rows):
+        for c in range(cols):
+            f = field[r, c]
+            length = s * (30.0 + float(np.linalg.norm(f)))
+            angle = float(np.arctan2(f[1], f[0])) if np.linalg.norm(f) > 1e-6 else 0.0
+            blurred = img if length < 1.0 else cv2.filter2D(img, -1, line_kernel(length, angle), borderType=cv2.BORDER_REFLECT)
+            if rows * cols == 1:
+                return _to_u8(blurred / 255.0)
+            one_hot = np.zeros((rows, cols))
+            one_hot[r, c] = 1.0
+            # bilinear interpolation of a one-hot grid: weights that sum to 1 over the tiles
+            weight = cv2.resize(one_hot, (w, h), interpolation=cv2.INTER_LINEAR)
+            out += weight * blurred
     return _to_u8(out / 255.0)
 
 
@@ -106,32 +124,53 @@ def glare(image: np.ndarray, s: float, blobs: np.ndarray) -> np.ndarray:
     return _to_u8(i + (1.0 - i) * np.minimum(1.0, light))
 
 
-def image_motion(prev: np.ndarray, nxt: np.ndarray) -> np.ndarray | None:
-    """Median optical flow (pixels) from ``prev`` to ``nxt``, or None with fewer than 8 tracks."""
+def image_motion(prev: np.ndarray, nxt: np.ndarray, grid: tuple[int, int] = (1, 1)) -> np.ndarray | None:
+    """Median optical flow (pixels) from ``prev`` to ``nxt`` per tile of a (rows, cols) ``grid``,
+    shape (rows, cols, 2); a tile with fewer than 5 tracks takes the global median. None with fewer
+    than 8 tracks in all."""
     import cv2
 
-    pts = cv2.goodFeaturesToTrack(prev, maxCorners=300, qualityLevel=0.01, minDistance=8)
+    pts = cv2.goodFeaturesToTrack(prev, maxCorners=400, qualityLevel=0.01, minDistance=8)
     if pts is None or len(pts) < 8:
         return None
     moved, status, _ = cv2.calcOpticalFlowPyrLK(prev, nxt, pts, pts.copy(), winSize=(21, 21), maxLevel=3)
     ok = status.reshape(-1) == 1
     if ok.sum() < 8:
         return None
-    return np.median((moved - pts).reshape(-1, 2)[ok], axis=0)
+    start = pts.reshape(-1, 2)[ok]
+    flow = (moved - pts).reshape(-1, 2)[ok]
+    rows, cols = grid
+    h, w = prev.shape[:2]
+    tile_r = np.minimum((start[:, 1] * rows / h).astype(int), rows - 1)
+    tile_c = np.minimum((start[:, 0] * cols / w).astype(int), cols - 1)
+    field = np.tile(np.median(flow, axis=0), (rows, cols, 1))
+    for r in range(rows):
+        for c in range(cols):
+            sel = (tile_r == r) & (tile_c == c)
+            if sel.sum() >= 5:
+                field[r, c] = np.median(flow[sel], axis=0)
+    return field
 
 
-def pose_motion(seq: Sequence, i: int, j: int) -> np.ndarray:
-    """Image motion of the principal point's scene point (at ``FALLBACK_DEPTH_M``) from frame i to j."""
+def pose_motion(seq: Sequence, i: int, j: int, grid: tuple[int, int] = (1, 1)) -> np.ndarray:
+    """Image motion (rows, cols, 2) from frame i to j of the tile centres' scene points, placed
+    ``FALLBACK_DEPTH_M`` metres along their rays, as the ground-truth poses and intrinsics predict."""
+    rows, cols = grid
+    field = np.zeros((rows, cols, 2))
     poses = seq.poses
     if poses is None or np.isnan(poses[[i, j]]).any():
-        return np.zeros(2)
-    k = seq.intrinsics.K
-    x_w = poses[i] @ np.array([0.0, 0.0, FALLBACK_DEPTH_M, 1.0])
-    x_j = np.linalg.inv(poses[j]) @ x_w
-    if x_j[2] <= 1e-6:
-        return np.zeros(2)
-    u = k @ (x_j[:3] / x_j[2])
-    return u[:2] - np.array([seq.intrinsics.cx, seq.intrinsics.cy])
+        return field
+    intr = seq.intrinsics
+    k_inv = np.linalg.inv(intr.K)
+    t_ji = np.linalg.inv(poses[j]) @ poses[i]
+    for r in range(rows):
+        for c in range(cols):
+            u = np.array([(c + 0.5) * intr.width / cols, (r + 0.5) * intr.height / rows, 1.0])
+            ray = k_inv @ u
+            x_j = t_ji @ np.append(ray / np.linalg.norm(ray) * FALLBACK_DEPTH_M, 1.0)
+            if x_j[2] > 1e-6:
+                field[r, c] = (intr.K @ (x_j[:3] / x_j[2]))[:2] - u[:2]
+    return field
 
 
 class CorruptedSequence(Sequence):
@@ -176,14 +215,19 @@ class CorruptedSequence(Sequence):
     def rng(self, frame_index: int) -> np.random.Generator:
         return np.random.default_rng((self.seed, frame_index, NAMES.index(self.corruption)))
 
-    def flow(self, i: int) -> np.ndarray:
-        """The image motion (pixels per frame) at position ``i`` of the base sequence."""
+    def flow_field(self, i: int, grid: tuple[int, int] | None = None) -> np.ndarray:
+        """Image motion (rows, cols, 2), pixels per frame, at position ``i`` of the base sequence."""
+        grid = grid or BLUR_GRID
         n = len(self.base)
         if n < 2:
-            return np.zeros(2)
+            return np.zeros((*grid, 2))
         a, b = (i, i + 1) if i + 1 < n else (i - 1, i)
-        f = image_motion(self.base[a].image, self.base[b].image)
-        return f if f is not None else pose_motion(self.base, a, b)
+        f = image_motion(self.base[a].image, self.base[b].image, grid)
+        return f if f is not None else pose_motion(self.base, a, b, grid)
+
+    def flow(self, i: int) -> np.ndarray:
+        """The median image motion (2,) at position ``i`` of the base sequence."""
+        return self.flow_field(i, (1, 1))[0, 0]
 
     def blobs(self, frame_index: int) -> np.ndarray:
         """Glare blobs of a frame: sequence-fixed centres drifting ~1 px per frame, fixed radii."""
@@ -204,7 +248,7 @@ class CorruptedSequence(Sequence):
         if s == 0:
             return frame.image
         if self.corruption == "motion_blur":
-            return motion_blur(frame.image, s, self.flow(i))
+            return motion_blur(frame.image, s, self.flow_field(i))
         if self.corruption == "glare":
             return glare(frame.image, s, self.blobs(frame.index))
         return _PIXEL[self.corruption](frame.image, s, self.rng(frame.index))

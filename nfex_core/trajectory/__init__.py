@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from .align import Alignment, align, umeyama
-from .ate import ErrorStats, associate, ate, rpe
+from .ate import ErrorStats, associate, associate_and_align, ate, rpe
 from .io import (
     Trajectory,
     from_sequence,
@@ -19,6 +19,7 @@ __all__ = [
     "Trajectory",
     "align",
     "associate",
+    "associate_and_align",
     "ate",
     "from_sequence",
     "read_trajectory",

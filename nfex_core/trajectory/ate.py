@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import BadInput
+from .align import Alignment
 from .align import align as align_trajectory
 from .io import Trajectory
 
@@ -96,6 +97,16 @@ def associate(ref: Trajectory, est: Trajectory, t_max_diff: float = 0.01) -> tup
     return (short_sub, long_sub) if est_longer else (long_sub, short_sub)
 
 
+def associate_and_align(
+    ref: Trajectory, est: Trajectory, align: str = "se3", t_max_diff: float = 0.01
+) -> tuple[Trajectory, Trajectory, Alignment]:
+    """The associated reference, the associated estimate aligned onto it, and the alignment: what
+    ``ate`` measures, for plotting trajectories against ground truth."""
+    r, e = associate(ref, est, t_max_diff)
+    e_aligned, alignment = align_trajectory(e, r, align)
+    return r, e_aligned, alignment
+
+
 def ate(
     ref: Trajectory,
     est: Trajectory,
@@ -104,10 +115,20 @@ def ate(
 ) -> ErrorStats:
     """Absolute trajectory error (translation part) after association and ``align`` (se3 | sim3 | none);
     ``evo_ape … -a`` is se3, ``-as`` is sim3."""
-    r, e = associate(ref, est, t_max_diff)
-    e_aligned, alignment = align_trajectory(e, r, align)
+    r, e_aligned, alignment = associate_and_align(ref, est, align, t_max_diff)
     errors = np.linalg.norm(e_aligned.positions - r.positions, axis=1)
     return ErrorStats.of(errors, alignment.scale)
+
+
+def se3_inverse(poses: np.ndarray) -> np.ndarray:
+    """[Rᵀ | −Rᵀ t] of (…, 4, 4) poses: the rigid inverse, as evo takes it (files round their
+    rotations, so Rᵀ and the matrix inverse differ at 1e-7, and evo's figures use Rᵀ)."""
+    out = np.zeros_like(poses)
+    rt = np.swapaxes(poses[..., :3, :3], -1, -2)
+    out[..., :3, :3] = rt
+    out[..., :3, 3] = -np.einsum("...ij,...j->...i", rt, poses[..., :3, 3])
+    out[..., 3, 3] = 1.0
+    return out
 
 
 def pairs_by_index(n: int, delta: int, all_pairs: bool = False) -> list[tuple[int, int]]:
@@ -180,7 +201,7 @@ def rpe(
     if not pairs:
         raise BadInput(f"delta = {delta} ({delta_unit}) produced no pose pairs; try a smaller delta")
     i, j = np.array(pairs, dtype=int).T
-    q_rel = np.linalg.inv(r.poses[i]) @ r.poses[j]
-    p_rel = np.linalg.inv(e.poses[i]) @ e.poses[j]
-    err = np.linalg.inv(q_rel) @ p_rel
+    q_rel = se3_inverse(r.poses[i]) @ r.poses[j]
+    p_rel = se3_inverse(e.poses[i]) @ e.poses[j]
+    err = se3_inverse(q_rel) @ p_rel
     return ErrorStats.of(np.linalg.norm(err[:, :3, 3], axis=1), alignment.scale)

@@ -43,7 +43,7 @@ def resolve_constructor(path: str) -> Callable[..., Any]:
         obj = getattr(obj, part)
     if not callable(obj):
         raise BadInput(f"cv2.{path} is not callable")
-    return obj  # type: ignore[no-any-return]
+    return obj
 
 
 def as_grey_u8(image: np.ndarray) -> np.ndarray:

@@ -37,7 +37,7 @@ FRAME_KEYS = (
 FLOW_KEYS = ("flow_median", "flow_p90", "flow_valid")
 SATURATED = 250
 HIGHLIGHT_MAX_AREA = 0.004  # a specular highlight is a blob of at most 0.4 % of the frame
-_LK = dict(winSize=(15, 15), maxLevel=3, criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 20, 0.03))
+_LK_CRITERIA = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 20, 0.03)
 
 
 def analysis_image(image: np.ndarray, side: int = ANALYSIS_SIDE) -> np.ndarray:
@@ -96,10 +96,11 @@ def _highlights(a: np.ndarray) -> tuple[float, float]:
 
 def _flow(prev: np.ndarray, cur: np.ndarray) -> tuple[float, float, float]:
     h, w = cur.shape
-    gx, gy = np.meshgrid(np.linspace(0.08 * w, 0.92 * w, 12), np.linspace(0.1 * h, 0.9 * h, 8))
+    gx, gy = np.meshgrid(np.linspace(0.08 * w, 0.92 * w, 8), np.linspace(0.1 * h, 0.9 * h, 6))
     pts = np.stack([gx.ravel(), gy.ravel()], 1).astype(np.float32).reshape(-1, 1, 2)
-    nxt, st, _ = cv2.calcOpticalFlowPyrLK(prev, cur, pts, None, **_LK)
-    back, st2, _ = cv2.calcOpticalFlowPyrLK(cur, prev, nxt, None, **_LK)
+    lk = {"winSize": (11, 11), "maxLevel": 3, "criteria": _LK_CRITERIA}
+    nxt, st, _ = cv2.calcOpticalFlowPyrLK(prev, cur, pts, None, **lk)  # type: ignore[call-overload]
+    back, st2, _ = cv2.calcOpticalFlowPyrLK(cur, prev, nxt, None, **lk)  # type: ignore[call-overload]
     ok = (st.ravel() == 1) & (st2.ravel() == 1) & (np.linalg.norm((back - pts).reshape(-1, 2), axis=1) < 1.0)
     if not ok.any():
         return 0.0, 0.0, 0.0
@@ -134,10 +135,10 @@ def frame_statistics(image: np.ndarray, previous_image: np.ndarray | None = None
     out["blur_direction"] = _directional_detail(a)
     out["highlight_fraction"], out["highlight_blobs"] = _highlights(a)
     if previous_image is not None:
-        p = analysis_image(previous_image)
-        if p.shape != a.shape:
-            p = cv2.resize(p, (a.shape[1], a.shape[0]), interpolation=cv2.INTER_AREA)
-        out["flow_median"], out["flow_p90"], out["flow_valid"] = _flow(p, a)
+        b = analysis_image(previous_image)
+        if b.shape != a.shape:
+            b = cv2.resize(b, (a.shape[1], a.shape[0]), interpolation=cv2.INTER_AREA)
+        out["flow_median"], out["flow_p90"], out["flow_valid"] = _flow(b, a)
     else:
         out["flow_median"], out["flow_p90"], out["flow_valid"] = 0.0, 0.0, 0.0
     return out

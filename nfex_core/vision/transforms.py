@@ -39,9 +39,9 @@ def motion_blur(image: np.ndarray, length: int = 21, angle_deg: float = 0.0) -> 
     k = np.zeros((length, length), np.float32)
     k[length // 2, :] = 1.0
     rot = cv2.getRotationMatrix2D((length / 2 - 0.5, length / 2 - 0.5), angle_deg, 1.0)
-    k = cv2.warpAffine(k, rot, (length, length))
-    k /= k.sum()
-    return cv2.filter2D(image, -1, k, borderType=cv2.BORDER_REFLECT)
+    kernel = np.asarray(cv2.warpAffine(k, rot, (length, length)), np.float32)
+    kernel /= kernel.sum()
+    return cv2.filter2D(image, -1, kernel, borderType=cv2.BORDER_REFLECT)
 
 
 def translate(image: np.ndarray, dx: float, dy: float) -> np.ndarray:

@@ -64,3 +64,11 @@ def test_bad_files_give_one_line_and_exit_2(tmp_path: Path, env: dict[str, str])
     assert p.returncode == 2 and p.stderr.count("\n") == 1 and "expected 12 numbers" in p.stderr
     p = run_cli(["ate", "--ref", str(bad), "--est", str(bad), "--format", "g2o"], env)
     assert p.returncode == 2
+
+
+def test_usage_errors_exit_2(env: dict[str, str]) -> None:
+    # a missing option or a non-number is a usage error (2), not an internal error (3)
+    p = run_cli(["ate", "--ref", "a", "--est", "b"], env)
+    assert p.returncode == 2 and "--format" in p.stderr
+    p = run_cli(["ate", "--ref", "a", "--est", "b", "--format", "tum", "--t-max-diff", "abc"], env)
+    assert p.returncode == 2 and "internal error" not in p.stderr

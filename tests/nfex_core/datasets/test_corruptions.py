@@ -122,3 +122,31 @@ def test_on_real_kitti_frames(data_dir: Path) -> None:
         assert f.context == {"agent": "car", "scene": "outdoor"} | LABELS[name]
     # KITTI 00 drives forward: the median flow of the first frames is small but measured, not the fallback
     assert corrupt(kitti, "motion_blur", 0.5).flow(0) is not None
+
+
+def test_forward_motion_blurs_radially() -> None:
+    """Driving forward the image expands from the centre: the left and right thirds move sideways
+    and outwards, so their blur is horizontal; the uniform kernel of a single median could not do this."""
+    seq = make_sequence(3, 240, 160, direction=(0.0, 0.0, 1.0), yaw_deg=0.0, step=0.15, planes=("wall",))
+    c = corrupt(seq, "motion_blur", 0.6)
+    field = c.flow_field(1)
+    assert field.shape == (2, 3, 2)
+    assert field[:, 0, 0].max() < -1.0 and field[:, 2, 0].min() > 1.0  # left moves left, right moves right
+    assert field[0, 1, 1] < 0 < field[1, 1, 1]  # top moves up, bottom moves down
+    before, after = seq[1].image, c[1].image
+    for cols in (slice(0, 60), slice(180, 240)):
+        b = _grad_energy(before[:, cols])
+        a = _grad_energy(after[:, cols])
+        assert a[1] / b[1] > 1.5 * (a[0] / b[0])  # horizontal detail lost more than vertical
+
+
+def test_pose_field_matches_the_measured_field() -> None:
+    from nfex_core.datasets.corruptions import FALLBACK_DEPTH_M, pose_motion
+
+    seq = make_sequence(3, 240, 160, direction=(1.0, 0.0, 0.0), yaw_deg=0.0, step=0.08, planes=("wall",))
+    measured = corrupt(seq, "motion_blur", 0.5).flow_field(0)
+    predicted = pose_motion(seq, 0, 1, (2, 3))
+    # the wall is ~3 m away, the fallback assumes FALLBACK_DEPTH_M: same direction, shorter length
+    assert np.all(np.sign(measured[..., 0]) == np.sign(predicted[..., 0]))
+    ratio = np.median(measured[..., 0] / predicted[..., 0])
+    assert 0.5 * FALLBACK_DEPTH_M / 3.0 < ratio < 1.5 * FALLBACK_DEPTH_M / 3.0

@@ -190,3 +190,18 @@ def test_handheld_poses_and_lens_model_explain_the_checkerboard(data_dir: Path) 
         assert np.mean(resid) < 0.2 * np.mean(raw)
         checked += 1
     assert checked >= 3
+
+
+def test_euroc_reads_the_asl_ground_truth_csv(tmp_path: Path, data_dir: Path) -> None:
+    """Without groundtruth_tum.txt the loader reads mav0/state_groundtruth_estimate0/data.csv."""
+    from nfex_core.trajectory import write_euroc
+
+    src = data_dir / "euroc" / "V1_01_easy_micro"
+    dst = tmp_path / "V1"
+    shutil.copytree(src, dst)
+    (dst / "groundtruth_tum.txt").unlink()
+    assert open_sequence(dst, "euroc").poses is None
+    gt = read_trajectory(src / "groundtruth_tum.txt", "tum")
+    write_euroc(dst / "mav0" / "state_groundtruth_estimate0" / "data.csv", gt)
+    a, b = open_sequence(dst, "euroc"), open_sequence(src, "euroc")
+    assert np.allclose(a.poses, b.poses, atol=1e-6)

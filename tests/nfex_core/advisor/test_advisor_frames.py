@@ -1,0 +1,44 @@
+"""The advisor on real frames: F_metrics over every candidate, estimated context, a two-frame stream."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+
+from nfex_core.advisor.advisor import Advisor
+from nfex_core.kg import KnowledgeGraph
+
+KITTI = "kitti/sequences/00/image_0"
+
+
+def test_select_on_a_kitti_frame_and_a_stream_of_two(kg: KnowledgeGraph, data_dir: Path) -> None:
+    files = sorted((data_dir / KITTI).glob("*.png"))
+    f0, f1 = (cv2.imread(str(files[i]), cv2.IMREAD_GRAYSCALE) for i in (40, 41))
+    advisor = Advisor(kg)
+    vocab = kg.vocabulary()
+    single = {m for m, s in vocab.metrics.items() if not s.temporal}
+
+    first = advisor.select({"agent": "car"}, frame=f0)
+    assert first.mode == "metrics"
+    assert first.candidates and all(c.score is not None for c in first.candidates)
+    assert {c.extractor for c in first.candidates} | {p.extractor for p in first.pruned} == set(vocab.extractors)
+    for c in first.candidates:
+        assert set(c.metrics) == single and all(0.0 <= v <= 1.0 for v in c.metrics.values())
+        assert c.keypoints and c.keypoints > 0
+    assert first.extractor == max(first.candidates, key=lambda c: c.score or 0.0).extractor
+    context = {e.dimension: e for e in first.context}
+    assert (context["agent"].value, context["agent"].source) == ("car", "given")
+    assert context["scene"].source == "unknown"
+    estimated = {d for d, e in context.items() if e.source == "estimated"}
+    assert {"light", "texture", "reflectance", "motion"} <= estimated
+    assert context["light"].value == "bright" and context["texture"].value in ("medium", "high")
+    assert all(0.0 <= (context[d].confidence or 0.0) <= 1.0 and context[d].evidence for d in estimated)
+
+    second = advisor.select({"agent": "car"}, frame=f1, previous=first.state)
+    assert second.mode == "metrics"
+    assert {c.extractor for c in second.candidates} == {c.extractor for c in first.candidates}
+    for c in second.candidates:
+        assert set(c.metrics) == set(vocab.metrics)
+        assert c.metrics["repeatability"] > 0.2 and c.metrics["stability"] > 0.1 and c.metrics["motion"] < 0.5
+    motion = next(e for e in second.context if e.dimension == "motion")
+    assert "flow" in (motion.evidence or "")

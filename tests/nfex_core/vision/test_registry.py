@@ -1,0 +1,160 @@
+"""Contract test over every extractor the graph registers, and extractors as data (issue 3, part 1)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import rdflib
+
+from nfex_core.errors import ParameterError, UnknownName
+from nfex_core.kg import KnowledgeGraph
+from nfex_core.kg.vocab import Vocabulary
+from nfex_core.vision.features import Features
+from nfex_core.vision.registry import ExtractorRegistry
+
+ONTOLOGY = Path(__file__).resolve().parents[3] / "ontology" / "extractors.ttl"
+NFEX = rdflib.Namespace("https://w3id.org/nfex#")
+
+
+def _ontology_extractors() -> list[str]:
+    g = rdflib.Graph().parse(ONTOLOGY)
+    return sorted(str(t) for x in g.subjects(rdflib.RDF.type, NFEX.FeatureExtractor) for t in g.objects(x, NFEX.token))
+
+
+EXTRACTORS = _ontology_extractors()
+
+
+def test_the_seeded_graph_registers_the_four_extractors(registry: ExtractorRegistry) -> None:
+    assert registry.names == EXTRACTORS
+    assert {"ORB", "SIFT", "AKAZE", "BRISK"} <= set(registry.names)
+
+
+def check_contract(feats: Features, image: np.ndarray, spec_kind: str) -> None:
+    n = len(feats)
+    assert feats.xy.shape == (n, 2) and feats.xy.dtype == np.float32
+    for arr, dtype in ((feats.size, np.float32), (feats.angle, np.float32), (feats.response, np.float32), (feats.octave, np.int32)):
+        assert arr.shape == (n,) and arr.dtype == dtype
+    assert feats.descriptors.ndim == 2 and feats.descriptors.shape[0] == n
+    assert feats.descriptors.dtype == (np.uint8 if spec_kind == "binary" else np.float32)
+    assert feats.descriptors.flags["C_CONTIGUOUS"]
+    assert feats.image_shape == image.shape[:2]
+    assert feats.norm == int(getattr(cv2, feats.norm_name))
+    h, w = image.shape[:2]
+    assert np.all(feats.xy[:, 0] >= 0) and np.all(feats.xy[:, 0] < w)
+    assert np.all(feats.xy[:, 1] >= 0) and np.all(feats.xy[:, 1] < h)
+    assert np.all(np.isfinite(feats.xy)) and np.all(feats.size > 0)
+
+
+@pytest.mark.parametrize("name", EXTRACTORS)
+def test_contract_on_a_real_frame(name: str, registry: ExtractorRegistry, euroc_pair: list[np.ndarray]) -> None:
+    image = euroc_pair[0]
+    spec = registry.spec(name)
+    feats = registry.extract(name, image)
+    assert len(feats) > 50, f"{name} found only {len(feats)} features on a textured EuRoC frame"
+    check_contract(feats, image, spec.descriptor_kind)
+    assert feats.descriptors.shape[1] == int(registry.create(name).descriptorSize())
+    assert feats.norm_name == spec.norm_for(registry.resolve(name))
+
+
+@pytest.mark.parametrize("name", EXTRACTORS)
+def test_same_input_gives_the_same_output(name: str, vocab: Vocabulary, euroc_pair: list[np.ndarray]) -> None:
+    image = euroc_pair[1]
+    a = ExtractorRegistry.from_vocabulary(vocab).extract(name, image)
+    b = ExtractorRegistry.from_vocabulary(vocab).extract(name, image.copy())  # a fresh detector too
+    c = ExtractorRegistry.from_vocabulary(vocab).extract(name, cv2.cvtColor(image, cv2.COLOR_GRAY2BGR))
+    for other in (b, c):
+        assert len(a) == len(other)
+        np.testing.assert_array_equal(a.xy, other.xy)
+        np.testing.assert_array_equal(a.descriptors, other.descriptors)
+        np.testing.assert_array_equal(a.response, other.response)
+
+
+@pytest.mark.parametrize("name", EXTRACTORS)
+@pytest.mark.parametrize("shape", [(480, 752), (64, 64), (376, 1241, 3)])
+def test_black_image_gives_zero_features_without_error(name: str, shape: tuple[int, ...], registry: ExtractorRegistry) -> None:
+    image = np.zeros(shape, np.uint8)
+    feats = registry.extract(name, image)
+    assert len(feats) == 0
+    check_contract(feats, image, registry.spec(name).descriptor_kind)
+    assert feats.descriptors.shape == (0, int(registry.create(name).descriptorSize()))
+
+
+@pytest.mark.parametrize("name", EXTRACTORS)
+def test_out_of_range_parameters_name_the_parameter_and_its_range(name: str, registry: ExtractorRegistry) -> None:
+    spec = registry.spec(name)
+    checked = 0
+    for p in spec.parameters.values():
+        if p.allowed is not None:
+            bad = max(p.allowed) + 1  # type: ignore[operator]
+        elif p.max is not None and p.datatype != "boolean":
+            bad = p.max + 1  # type: ignore[operator]
+        else:
+            continue
+        with pytest.raises(ParameterError) as err:
+            registry.extract(name, np.zeros((32, 32), np.uint8), {p.name: bad})
+        text = str(err.value)
+        assert f"{name}.{p.name}" in text and repr(bad) in text and p.range_text() in text
+        checked += 1
+    assert checked >= 3
+    with pytest.raises(UnknownName) as unknown:
+        registry.create(name, {"no_such_parameter": 1})
+    assert f"{name}.no_such_parameter" in str(unknown.value)
+    assert all(f"{name}.{p}" in str(unknown.value) for p in spec.parameters)
+
+
+def test_wrong_types_are_rejected(registry: ExtractorRegistry) -> None:
+    with pytest.raises(ParameterError, match=r"ORB.nfeatures = 1.5 is not an integer; allowed: \[1, 20000\]"):
+        registry.create("ORB", {"nfeatures": 1.5})
+    with pytest.raises(ParameterError, match="SIFT.enable_precise_upscale"):
+        registry.create("SIFT", {"enable_precise_upscale": 3})
+
+
+def test_parameters_reach_opencv(registry: ExtractorRegistry, euroc_pair: list[np.ndarray]) -> None:
+    assert len(registry.extract("ORB", euroc_pair[0], {"nfeatures": 100})) <= 100
+    assert registry.extract("ORB", euroc_pair[0], {"WTA_K": 3}).norm_name == "NORM_HAMMING2"
+    few = registry.extract("BRISK", euroc_pair[0], {"thresh": 120})
+    many = registry.extract("BRISK", euroc_pair[0], {"thresh": 15})
+    assert len(few) < len(many)
+
+
+KAZE_TTL = """
+@prefix nfex: <https://w3id.org/nfex#> . @prefix rdfs: <http://www.w3.org/2000/01/rdf-schema#> .
+@prefix owl: <http://www.w3.org/2002/07/owl#> . @prefix xsd: <http://www.w3.org/2001/XMLSchema#> .
+nfex:KAZE a owl:NamedIndividual, nfex:FeatureExtractor ; rdfs:label "KAZE"@en ;
+    rdfs:comment "KAZE (Alcantarilla et al. 2012): nonlinear scale space, float descriptors."@en ;
+    nfex:token "KAZE" ; nfex:opencvConstructor "xfeatures2d.KAZE_create" ;
+    nfex:descriptorKind nfex:RealDescriptor ; nfex:matchNorm "NORM_L2" ;
+    nfex:performs nfex:NonlinearScaleSpace, nfex:HessianDeterminant .
+nfex:KAZE_threshold a owl:NamedIndividual, nfex:Parameter ; rdfs:label "KAZE threshold"@en ;
+    rdfs:comment "Detector response threshold."@en ; nfex:parameterOf nfex:KAZE ; nfex:opencvName "threshold" ;
+    nfex:role nfex:ST ; nfex:datatype xsd:double ; nfex:defaultValue "0.001"^^xsd:double ;
+    nfex:minValue "1e-05"^^xsd:double ; nfex:maxValue "0.05"^^xsd:double ; nfex:tunable true .
+nfex:KAZE_nOctaves a owl:NamedIndividual, nfex:Parameter ; rdfs:label "KAZE nOctaves"@en ;
+    rdfs:comment "Maximum octave evolution."@en ; nfex:parameterOf nfex:KAZE ; nfex:opencvName "nOctaves" ;
+    nfex:role nfex:NL ; nfex:datatype xsd:integer ; nfex:defaultValue "4"^^xsd:integer ;
+    nfex:minValue "1"^^xsd:integer ; nfex:maxValue "8"^^xsd:integer ; nfex:tunable true .
+nfex:KAZE_extended a owl:NamedIndividual, nfex:Parameter ; rdfs:label "KAZE extended"@en ;
+    rdfs:comment "128-element instead of 64-element descriptors."@en ; nfex:parameterOf nfex:KAZE ;
+    nfex:opencvName "extended" ; nfex:role nfex:OtherRole ; nfex:datatype xsd:boolean ;
+    nfex:defaultValue false ; nfex:tunable false .
+"""
+
+
+def test_adding_an_extractor_is_data(kg: KnowledgeGraph, euroc_pair: list[np.ndarray]) -> None:
+    """KAZE, which no Python names, becomes extractable from one checked transaction of Turtle."""
+    assert "KAZE" not in ExtractorRegistry.from_vocabulary(kg.vocabulary()).names
+    kg.add(rdflib.Graph().parse(data=KAZE_TTL, format="turtle"), author="test", message="add KAZE")
+    registry = ExtractorRegistry.from_vocabulary(kg.vocabulary())
+    assert "KAZE" in registry.names
+    image = cv2.resize(euroc_pair[0], (376, 240), interpolation=cv2.INTER_AREA)  # KAZE is slow at full size
+    feats = registry.extract("KAZE", image)
+    assert len(feats) > 20
+    check_contract(feats, image, "real")
+    assert feats.descriptors.shape[1] == 64 and feats.norm_name == "NORM_L2"
+    assert registry.extract("KAZE", image, {"extended": True}).descriptors.shape[1] == 128
+    assert len(registry.extract("KAZE", image, {"threshold": 0.01})) < len(feats)
+    with pytest.raises(ParameterError, match=r"KAZE.nOctaves = 9 is outside its range \[1, 8\]"):
+        registry.extract("KAZE", image, {"nOctaves": 9})
+    assert len(registry.extract("KAZE", np.zeros((64, 64), np.uint8))) == 0
