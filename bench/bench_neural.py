@@ -123,7 +123,7 @@ def main() -> None:
         for k, (cmd, e) in cmds.items():
             times[k].append(wall(cmd, 1, e))
     select_ms, symbolic_ms, torch_ms = (statistics.median(times[k]) for k in ("both", "symbolic", "torch"))
-    print(f"process start → first answer, nfex select --context agent=car (both nets)  {select_ms:8.1f} ms")
+    print(f"process start → first answer, nfex select --context agent=car (NFEX_NEURAL=both){select_ms:8.1f} ms")
     print(f"process start → first answer, same with NFEX_NEURAL=symbolic               {symbolic_ms:8.1f} ms")
     print(f"process start → python -c 'import torch'                                  {torch_ms:8.1f} ms")
     print(f"ratio import torch / nfex select: {torch_ms / select_ms:.2f}×  (median of {args.repeat} fresh processes each)")
