@@ -2,9 +2,10 @@
 
     frame + context ─► conditions: fill unknown dimensions from the frame (vision.context)
                     ─► symbolic: candidates C(E) with the rules that pruned the others (rules.engine)
-                    ─► params: Θ′ per candidate = g(Θ, E), clamped to the graph's ranges (fitness),
+                    ─► params: Θ′ per candidate = g(Θ, E) or ParamNet(E, s), clamped to the graph's ranges,
                                repaired or pruned by the context shapes in force (rules.shape_check)
-                    ─► selection: α* = argmax over C(E) of F_metrics on the frame (fitness, vision)
+                    ─► selection: α* = argmax over C(E) of F_metrics on the frame (fitness, vision),
+                                  or of SelectorNet's probabilities masked to C(E) (neural.serve)
                     ─► Selection {α*, Θ′, scores, pruned + reasons, context used, versions, timings}
 
 It holds a snapshot — graph version, vocabulary, compiled rule table, extractor registry — and
@@ -18,7 +19,8 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -26,6 +28,7 @@ import numpy as np
 from ..errors import NoCandidate
 from ..fitness import adjust_params, f_metrics
 from ..kg.vocab import ExtractorSpec, Value, Vocabulary
+from ..neural.serve import ModelHolder, NeuralStep, frame_stats
 from ..rules.engine import Citation, Decision, RuleEngine, RuleTable
 from ..rules.shape_check import enforce
 from .selection import CandidateScore, ContextEntry, PrunedCandidate, Selection
@@ -74,8 +77,20 @@ def downscale(image: np.ndarray, max_side: int) -> np.ndarray:
 
 
 class Advisor:
-    def __init__(self, kg: KnowledgeGraph, *, score_max_side: int = 640, poll_interval_s: float = 1.0) -> None:
+    """``neural``: symbolic | paramnet | selectornet | both (default: $NFEX_NEURAL or both; see neural.serve);
+    ``models``: the model folder (default: Settings.models). Without a usable model the advisor is symbolic."""
+
+    def __init__(
+        self,
+        kg: KnowledgeGraph,
+        *,
+        score_max_side: int = 640,
+        poll_interval_s: float = 1.0,
+        neural: str | None = None,
+        models: Path | str | None = None,
+    ) -> None:
         self.kg = kg
+        self.neural = ModelHolder(models, neural)
         self.engine = RuleEngine(kg)
         self.score_max_side = score_max_side
         self.poll_interval_s = poll_interval_s
@@ -147,7 +162,16 @@ class Advisor:
                 pruned=[PrunedCandidate(x, cs).as_dict() for x, cs in decision.pruned.items()],
             )
         lap("symbolic")
-        scored, state, mode, cut = self._score(snap, decision, image, previous)
+        nn = self.neural.step(snap.vocab)
+        if nn.active:
+            nn.prepare(values, frame_stats(image))
+            lap("neural")
+        scored, state, mode, cut = self._score(snap, decision, image, previous, nn)
+        if nn.selectornet and scored:
+            probs = nn.probabilities(image, {c.extractor: c.metrics for c in scored}, tuple(c.extractor for c in scored))
+            if probs:  # else no candidate is one the network was trained on: F_metrics decides
+                scored = [replace(c, score=probs.get(c.extractor, 0.0), evidence={**c.evidence, "f": c.score}) for c in scored]
+                mode = "selectornet"
         lap("selection")
         pruned = {**decision.pruned, **cut}
         if not scored:
@@ -167,7 +191,7 @@ class Advisor:
             pruned=tuple(PrunedCandidate(x, cs) for x, cs in sorted(pruned.items())),
             context=tuple(entries),
             weights=dict(decision.weights),
-            versions={"graph": snap.version, "programs": snap.programs, "rules": len(snap.table.rules)},
+            versions={"graph": snap.version, "programs": snap.programs, "rules": len(snap.table.rules), "model": nn.info},
             timings_ms=timings,
             constructor=spec.constructor,
             norm=spec.norm_for(best.params),
@@ -199,8 +223,24 @@ class Advisor:
             values[dim] = entry.value
         return entries, values
 
+    def _theta(
+        self, spec: Any, decision: Decision, nn: NeuralStep, pixels: int | None = None
+    ) -> tuple[dict[str, Any], list[Any]]:
+        """Θ′ = ParamNet(E, s) when the neural step has it, else g(Θ, E); clamped to the graph either way."""
+        if nn.covers(spec.name):
+            return nn.params(spec, pixels)
+        return adjust_params(spec, decision.factors.get(spec.name, {}), pixels=pixels)
+
+    def _candidate(
+        self, spec: ExtractorSpec, decision: Decision, nn: NeuralStep, pixels: int | None
+    ) -> tuple[dict[str, Value], list[Any], tuple[Citation, ...]]:
+        """Θ′ checked against the context shapes: repaired Θ′, every adjustment, or why α is pruned."""
+        params, adjustments = self._theta(spec, decision, nn, pixels)
+        outcome = enforce(spec, params, decision.shapes)
+        return outcome.params, [*adjustments, *outcome.adjustments], outcome.pruned
+
     def _score(
-        self, snap: Snapshot, decision: Decision, image: np.ndarray | None, previous: FrameState | None
+        self, snap: Snapshot, decision: Decision, image: np.ndarray | None, previous: FrameState | None, nn: NeuralStep
     ) -> tuple[list[CandidateScore], FrameState | None, str, dict[str, tuple[Citation, ...]]]:
         vocab = snap.vocab
         cut: dict[str, tuple[Citation, ...]] = {}
@@ -209,7 +249,7 @@ class Advisor:
             if cached is None:
                 prior: list[CandidateScore] = []
                 for x in decision.candidates:
-                    got = self._prior(snap, decision, x)
+                    got = self._prior(snap, decision, x, nn)
                     if isinstance(got, CandidateScore):
                         prior.append(got)
                     else:
@@ -223,12 +263,12 @@ class Advisor:
         features: dict[str, Any] = {}
         for x in decision.candidates:
             spec = vocab.extractor(x)
-            params, adjustments, because = _candidate(spec, decision, int(image.shape[0] * image.shape[1]))
+            params, adjustments, because = self._candidate(spec, decision, nn, int(image.shape[0] * image.shape[1]))
             if because:
                 cut[x] = because
                 continue
             # F_metrics is measured on the scoring image, with count parameters scaled to its size
-            score_params, _, _ = _candidate(spec, decision, int(small.shape[0] * small.shape[1]))
+            score_params, _, _ = self._candidate(spec, decision, nn, int(small.shape[0] * small.shape[1]))
             feats = snap.registry.extract(x, small, score_params)
             features[x] = feats
             prev = None
@@ -251,10 +291,10 @@ class Advisor:
             )
         return out, FrameState(small, features), "metrics", cut
 
-    def _prior(self, snap: Snapshot, decision: Decision, x: str) -> CandidateScore | tuple[Citation, ...]:
+    def _prior(self, snap: Snapshot, decision: Decision, x: str, nn: NeuralStep) -> CandidateScore | tuple[Citation, ...]:
         """Without a frame: the preference bonus plus measured accuracy (best mean ATE / this one's)."""
         spec = snap.vocab.extractor(x)
-        params, adjustments, because = _candidate(spec, decision, None)
+        params, adjustments, because = self._candidate(spec, decision, nn, None)
         if because:
             return because
         bonus = decision.bonuses[x].value if x in decision.bonuses else 0.0
@@ -269,13 +309,6 @@ class Advisor:
             adjustments=tuple(adjustments),
             evidence=_evidence_dict(decision, x),
         )
-
-
-def _candidate(spec: ExtractorSpec, decision: Decision, pixels: int | None) -> tuple[dict[str, Value], list[Any], tuple[Citation, ...]]:
-    """Θ′ = g(Θ, E) checked against the context shapes: repaired Θ′, every adjustment, or why α is pruned."""
-    params, adjustments = adjust_params(spec, decision.factors.get(spec.name, {}), pixels=pixels)
-    outcome = enforce(spec, params, decision.shapes)
-    return outcome.params, [*adjustments, *outcome.adjustments], outcome.pruned
 
 
 def _evidence_dict(decision: Decision, x: str) -> dict[str, Any]:

@@ -73,7 +73,7 @@ class PrunedCandidate:
 class Selection:
     extractor: str
     params: dict[str, Value]
-    mode: str  # "metrics" (F_metrics on the frame) | "prior" (no frame: rules and measurements)
+    mode: str  # "metrics" (F_metrics on the frame) | "prior" (no frame: rules and measurements) | "selectornet"
     candidates: tuple[CandidateScore, ...]
     pruned: tuple[PrunedCandidate, ...]
     context: tuple[ContextEntry, ...]

@@ -1,0 +1,50 @@
+"""``nfex train``: ParamNet and SelectorNet from a sweep's training table (torch, imported only here)."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from ..errors import BadInput, DataMissing
+from .common import err, open_kg, settings
+
+
+def train(
+    table: Annotated[Path, typer.Option("--table", help="The sweep's training table (CSV, one row per window × configuration).")],
+    out: Annotated[Path | None, typer.Option("--out", help="Model folder to write (default: $NFEX_MODELS/default).")] = None,
+    epochs: Annotated[int | None, typer.Option("--epochs", help="Passes over the training windows (default: enough for 4,000 Adam steps, at least 300).")] = None,
+    lr: Annotated[float, typer.Option("--lr", help="Adam learning rate (the paper: 1e-4).")] = 1e-4,
+    batch: Annotated[int, typer.Option("--batch", help="Batch size (the paper: 8).")] = 8,
+    val_sequences: Annotated[
+        list[str] | None,
+        typer.Option("--val-sequences", help="Sequences held out for validation (dataset/sequence or name; repeatable). "
+                     "Default: the last sequence; with one sequence, its second half."),
+    ] = None,
+    refit_all: Annotated[bool, typer.Option("--refit-all", help="After validating, train the shipped weights again on every window.")] = False,
+    no_images: Annotated[bool, typer.Option("--no-images", help="Train SelectorNet without frames (image bit 0).")] = False,
+    seed: Annotated[int, typer.Option("--seed")] = 0,
+) -> None:
+    """Train both networks, report validation loss/accuracy, and write a versioned model folder."""
+    if not table.is_file():
+        raise DataMissing(f"no training table at {table}")
+    try:
+        from ..neural.train import train as run
+    except ImportError as e:  # torch is a training-only dependency
+        raise BadInput(f"training needs torch (pip install 'nfex[train]'): {e}") from None
+    s = settings()
+    dest = out or s.models / "default"
+    kg = open_kg()
+    try:
+        vocab = kg.vocabulary()
+    finally:
+        kg.close()
+    try:
+        report = run(
+            table, dest, vocab, epochs=epochs, lr=lr, batch=batch, val_sequences=val_sequences, refit_all=refit_all,
+            data_dir=None if no_images else s.data, seed=seed, log=err,
+        )  # fmt: skip
+    except ValueError as e:
+        raise BadInput(str(e)) from None
+    typer.echo(json.dumps({"model": str(report.path), "split": report.split, "windows": report.windows, "validation": report.metrics}, indent=2))

@@ -1,0 +1,183 @@
+"""The advisor's neural step: Θ′ = ParamNet(E, s) and α* = SelectorNet masked to C(E), without torch.
+
+Modes (the paper's ablations): ``symbolic`` (g(Θ, E) and F_metrics only), ``paramnet``, ``selectornet``,
+``both`` (default; NFEX_NEURAL overrides). The model folder (NFEX_MODELS, default ``models/``; the
+``default`` model in it) is loaded on first use, once, and checked against each graph version's
+vocabulary; a missing model or a changed vocabulary falls back to symbolic and the Selection says why.
+
+In ``both``, a network whose validation is worse than its trivial baseline (ParamNet: MSE above that
+of predicting the training mean; SelectorNet: accuracy below always answering the training majority)
+is not used, and the Selection says so (``versions.model.skipped``); ``paramnet`` and ``selectornet``
+force their network, for the ablations.
+
+Θ′ is the network's, as in the paper (rules' factors are not multiplied on top: the network learned
+from the sweep's best configurations in that context, so the context would count twice); the graph
+still bounds it: each θ′ is clamped to its range and rounded to its datatype, and the rules still
+prune C(E).
+"""
+from __future__ import annotations
+
+import os
+import threading
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..fitness import Adjustment
+from ..kg.vocab import ExtractorSpec, Value, Vocabulary
+from ..rules.engine import Citation
+from .artifacts import NeuralModel, find_model
+from .paramnet import decode
+from .selectornet import masked_probabilities, numeric_input, prepare_image
+
+MODES = ("symbolic", "paramnet", "selectornet", "both")
+
+
+def check_mode(mode: str) -> str:
+    if mode not in MODES:
+        from ..errors import UnknownName
+
+        raise UnknownName("advisor mode", mode, MODES)
+    return mode
+
+
+@dataclass
+class NeuralStep:
+    """What one selection uses: the model (or None) and, for the Selection, what was used and why."""
+
+    model: NeuralModel | None
+    paramnet: bool
+    selectornet: bool
+    info: dict[str, Any] = field(default_factory=dict)
+    _u: np.ndarray | None = None
+    _ctx: np.ndarray | None = None
+    _stats: np.ndarray | None = None
+
+    @property
+    def active(self) -> bool:
+        return self.paramnet or self.selectornet
+
+    def prepare(self, values: Mapping[str, str | None], stats: Mapping[str, float] | None) -> None:
+        """Encode E and the frame statistics once, and run ParamNet once for every extractor's Θ′."""
+        assert self.model is not None
+        seen = self.model.context_seen
+        if seen is not None:  # a value never seen in training enters as "unknown", its weights are untrained
+            values = {d: (v if v in seen.get(d, ()) else None) for d, v in values.items()}
+        ctx = self.model.inputs.context_onehot(values)
+        self._stats = self.model.scaler.transform(stats)
+        self._ctx = ctx
+        if self.paramnet and self.model.paramnet is not None:
+            self._u = self.model.paramnet.forward(np.concatenate([ctx, self._stats]))
+
+    def covers(self, extractor: str) -> bool:
+        """Whether ParamNet learned any of this extractor's parameters (the sweep may not have measured it)."""
+        return self.paramnet and self.model is not None and any(q.startswith(extractor + ".") for q in self.model.trained_params)
+
+    def params(self, spec: ExtractorSpec, pixels: int | None) -> tuple[dict[str, Value], list[Adjustment]]:
+        """Θ′ for one candidate: the graph's defaults with ParamNet's outputs, clamped to the graph."""
+        assert self.model is not None and self._u is not None
+        theta = spec.defaults()
+        cite = Citation(
+            rule=f"urn:nfex:model:{self.model.version}#paramnet",
+            label=f"ParamNet {self.model.version}",
+            reason="Θ′ predicted from the context and frame statistics, clamped to the graph's range",
+            kind="adjust",
+        )
+        adjustments = []
+        trained = self.model.trained_params
+        for name, (value, raw) in decode(self.model.inputs, self._u, spec, pixels, self.model.grid).items():
+            if f"{spec.name}.{name}" not in trained:
+                continue
+            before = theta[name]
+            theta[name] = value
+            factor = raw / float(before) if float(before) else 0.0
+            adjustments.append(Adjustment(name, before, value, factor, (cite,)))
+        return theta, adjustments
+
+    def probabilities(
+        self, image: np.ndarray | None, metrics: Mapping[str, Mapping[str, float]], candidates: Sequence[str]
+    ) -> dict[str, float]:
+        """P(α | frame, E, metrics) over the candidates C(E) that the sweep measured; pruned extractors
+        (and extractors absent from the training data, whose outputs are untrained) are masked out."""
+        assert self.model is not None and self.model.selectornet is not None
+        assert self._ctx is not None and self._stats is not None
+        inp = self.model.inputs
+        known = self.model.selector_extractors
+        net = self.model.selectornet
+        img = prepare_image(image) if image is not None else np.zeros((48, 160), np.float32)
+        metrics = {x: m for x, m in metrics.items() if x in known}
+        num = numeric_input(self._ctx, self._stats, image is not None, metrics, inp.extractors, inp.metrics)
+        return masked_probabilities(net.logits(img, num), inp.extractors, [x for x in candidates if x in known])
+
+
+class ModelHolder:
+    """Loads the model once (lazily) and answers, per graph vocabulary, which neural steps apply."""
+
+    def __init__(self, models: Path | str | None = None, mode: str | None = None, name: str = "default") -> None:
+        if models is None:
+            from ..config import Settings
+
+            models = Settings.from_env().models
+        self.models = Path(models)
+        self.mode = check_mode(mode or os.environ.get("NFEX_NEURAL") or "both")
+        self.name = name
+        self._model: NeuralModel | None = None
+        self._loaded = False
+        self._error: str | None = None
+        self._checked: tuple[int, str | None] | None = None
+        self._lock = threading.Lock()
+        self.load_ms: float | None = None
+
+    def model(self) -> NeuralModel | None:
+        if not self._loaded:
+            with self._lock:
+                if not self._loaded:
+                    t = time.perf_counter()
+                    path = find_model(self.models, self.name)
+                    if path is None:
+                        self._error = f"no model at {self.models / self.name}"
+                    else:
+                        try:
+                            self._model = NeuralModel.load(path)
+                        except (OSError, ValueError, KeyError) as e:
+                            self._error = f"model at {path} unreadable: {e}"
+                    self.load_ms = (time.perf_counter() - t) * 1000
+                    self._loaded = True
+        return self._model
+
+    def step(self, vocab: Vocabulary) -> NeuralStep:
+        info: dict[str, Any] = {"mode": self.mode}
+        if self.mode == "symbolic":
+            return NeuralStep(None, False, False, {**info, "used": "symbolic"})
+        model = self.model()
+        if model is None:
+            return NeuralStep(None, False, False, {**info, "used": "symbolic", "fallback": self._error})
+        if self._checked is None or self._checked[0] != vocab.version:
+            self._checked = (vocab.version, model.check(vocab))
+        info.update(model.info())
+        if self._checked[1] is not None:
+            return NeuralStep(None, False, False, {**info, "used": "symbolic", "fallback": self._checked[1]})
+        p = self.mode in ("paramnet", "both") and model.paramnet is not None
+        s = self.mode in ("selectornet", "both") and model.selectornet is not None
+        if self.mode == "both":  # the default uses a network only where validation shows it earns its place
+            gates = model.validation_gates()
+            p, s = p and "paramnet" not in gates, s and "selectornet" not in gates
+            if gates:
+                info["skipped"] = gates
+        used = "+".join(n for n, on in (("paramnet", p), ("selectornet", s)) if on) or "symbolic"
+        return NeuralStep(model, p, s, {**info, "used": used, "load_ms": round(self.load_ms or 0.0, 3)})
+
+
+def frame_stats(image: np.ndarray | None) -> dict[str, float] | None:
+    """The frame statistics ParamNet was trained on (vision.context), or None without a frame or that module."""
+    if image is None:
+        return None
+    try:
+        from ..vision.context import frame_statistics
+    except ImportError:
+        return None
+    return dict(frame_statistics(image))

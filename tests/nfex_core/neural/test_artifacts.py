@@ -1,0 +1,59 @@
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from nfex_core.kg import KnowledgeGraph
+from nfex_core.kg.sparql_query import with_prefixes
+from nfex_core.neural.artifacts import NeuralModel, find_model
+
+NARROW_NFEATURES = """
+DELETE { ?p nfex:maxValue ?m } INSERT { ?p nfex:maxValue 8000 }
+WHERE { ?p nfex:parameterOf/nfex:token "ORB" ; nfex:opencvName "nfeatures" ; nfex:maxValue ?m }
+"""
+
+
+def test_round_trip(trained, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    _, model = trained
+    copy = NeuralModel.load(model.save(tmp_path / "again"))
+    assert copy.inputs == model.inputs and copy.scaler.keys == model.scaler.keys
+    for a, b in ((copy.paramnet, model.paramnet), (copy.selectornet, model.selectornet)):
+        assert a is not None and b is not None
+        assert all(np.array_equal(a.weights[k], b.weights[k]) for k in b.weights)
+    assert copy.version == model.version and len(copy.version) > 10
+
+
+def test_size_is_kilobytes(trained) -> None:  # type: ignore[no-untyped-def]
+    _, model = trained
+    assert sum(f.stat().st_size for f in model.path.iterdir()) < 200_000
+
+
+def test_vocabulary_check_follows_the_graph(trained, kg: KnowledgeGraph) -> None:  # type: ignore[no-untyped-def]
+    _, model = trained
+    assert model.check(kg.vocabulary()) is None
+    kg.update(with_prefixes(NARROW_NFEATURES), author="test", message="narrow ORB.nfeatures")
+    reason = model.check(kg.vocabulary())
+    assert reason is not None and "tunable parameters" in reason
+
+
+def test_refuses_a_folder_of_another_format(trained, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    _, model = trained
+    d = tmp_path / "m"
+    shutil.copytree(model.path, d)
+    manifest = json.loads((d / "manifest.json").read_text())
+    manifest["format"] = "something/0"
+    (d / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(ValueError, match="not an nFEX model"):
+        NeuralModel.load(d)
+
+
+def test_find_model(trained, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    _, model = trained
+    assert find_model(tmp_path) is None
+    shutil.copytree(model.path, tmp_path / "default")
+    assert find_model(tmp_path) == tmp_path / "default"
+    assert find_model(model.path) == model.path

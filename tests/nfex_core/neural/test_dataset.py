@@ -1,0 +1,25 @@
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from nfex_core.neural.dataset import Window, default_image_source
+from nfex_core.neural.selectornet import IMAGE_HW
+
+
+def window(corruption: str, severity: str = "0.7", dataset: str = "kitti", sequence: str = "00") -> Window:
+    return Window(dataset, sequence, corruption, severity, "0", 10, 30, {}, {}, 1241 * 376)
+
+
+def test_images_of_windows_follow_the_sweeps_corruption(data_dir: Path) -> None:
+    source = default_image_source(data_dir)
+    clean, dark = source(window("none")), source(window("dark"))
+    assert clean is not None and dark is not None
+    assert clean.shape == dark.shape == IMAGE_HW and clean.dtype == np.float32
+    assert 0.0 <= dark.min() and clean.max() <= 1.0
+    assert dark.mean() < 0.6 * clean.mean()  # the dark corruption, as the sweep measured it
+
+
+def test_missing_sequence_gives_no_image(data_dir: Path) -> None:
+    assert default_image_source(data_dir)(window("none", sequence="99")) is None

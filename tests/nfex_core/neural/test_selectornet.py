@@ -1,0 +1,58 @@
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from nfex_core.neural import torch_nets
+from nfex_core.neural.selectornet import IMAGE_HW, SelectorNet, conv2d_hwc, init_weights, masked_probabilities
+
+
+def torch_logits(weights: dict[str, np.ndarray], images: np.ndarray, numeric: np.ndarray) -> np.ndarray:
+    import torch
+
+    n_out = weights["fc3.weight"].shape[0]
+    n_num = weights["fc1.weight"].shape[1] - weights["conv2.weight"].shape[0]
+    m = torch_nets.load(torch_nets.selectornet_module(n_num, n_out), weights)
+    with torch.no_grad():
+        return m(torch.from_numpy(images), torch.from_numpy(numeric)).numpy()
+
+
+def test_conv_equals_torch() -> None:
+    import torch
+
+    rng = np.random.default_rng(0)
+    x = rng.normal(size=(13, 22, 5)).astype(np.float32)
+    w = rng.normal(size=(7, 5, 3, 3)).astype(np.float32)
+    b = rng.normal(size=7).astype(np.float32)
+    ref = torch.nn.functional.conv2d(torch.from_numpy(x).permute(2, 0, 1)[None], torch.from_numpy(w), torch.from_numpy(b), stride=2, padding=1)
+    np.testing.assert_allclose(conv2d_hwc(x, w, b), ref[0].permute(1, 2, 0).numpy(), atol=1e-5, rtol=0)
+
+
+def test_numpy_equals_torch_random_weights() -> None:
+    w = init_weights(n_numeric=55, n_outputs=4, seed=5)
+    rng = np.random.default_rng(1)
+    images = rng.uniform(size=(6, *IMAGE_HW)).astype(np.float32)
+    numeric = rng.normal(size=(6, 55)).astype(np.float32)
+    np.testing.assert_allclose(SelectorNet(w).forward(images, numeric), torch_logits(w, images, numeric), atol=1e-5, rtol=0)
+
+
+def test_numpy_equals_torch_trained(trained) -> None:  # type: ignore[no-untyped-def]
+    _, model = trained
+    net = model.selectornet
+    rng = np.random.default_rng(2)
+    images = rng.uniform(size=(4, *IMAGE_HW)).astype(np.float32)
+    numeric = rng.normal(size=(4, net.n_numeric)).astype(np.float32)
+    np.testing.assert_allclose(net.forward(images, numeric), torch_logits(dict(net.weights), images, numeric), atol=1e-5, rtol=0)
+
+
+NAMES = ("AKAZE", "BRISK", "ORB", "SIFT")
+
+
+@settings(max_examples=100)
+@given(st.lists(st.floats(-50, 50), min_size=4, max_size=4), st.sets(st.sampled_from(NAMES), min_size=1))
+def test_a_pruned_extractor_is_never_chosen(logits: list[float], allowed: set[str]) -> None:
+    p = masked_probabilities(np.array(logits), NAMES, sorted(allowed))
+    assert set(p) == allowed
+    assert abs(sum(p.values()) - 1.0) < 1e-9
+    assert max(p, key=p.__getitem__) in allowed
