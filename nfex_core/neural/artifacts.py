@@ -75,15 +75,19 @@ class NeuralModel:
         return out
 
     def validation_gates(self) -> dict[str, str]:
-        """The networks whose validation did worse than the trivial baseline, with the numbers."""
+        """The networks whose validation did not beat the trivial baseline, with the numbers.
+
+        A tie counts against the network: a selector that is only as good as always answering the
+        majority extractor has learned nothing the rules do not already say (regression test:
+        tests/nfex_core/neural/test_artifacts.py)."""
         m = self.manifest.get("metrics") or {}
         out: dict[str, str] = {}
         pn, sn = m.get("paramnet") or {}, m.get("selectornet") or {}
-        if "val_mse" in pn and pn["val_mse"] > pn.get("val_mse_train_mean", float("inf")):
-            out["paramnet"] = f"validation MSE {pn['val_mse']} > {pn['val_mse_train_mean']} of predicting the training mean"
-        if "val_accuracy" in sn and sn["val_accuracy"] < sn.get("val_accuracy_majority", 0.0):
+        if "val_mse" in pn and pn["val_mse"] >= pn.get("val_mse_train_mean", float("inf")):
+            out["paramnet"] = f"validation MSE {pn['val_mse']} >= {pn['val_mse_train_mean']} of predicting the training mean"
+        if "val_accuracy" in sn and sn["val_accuracy"] <= sn.get("val_accuracy_majority", -1.0):
             out["selectornet"] = (
-                f"validation accuracy {sn['val_accuracy']} < {sn['val_accuracy_majority']} of always answering {sn.get('majority')}"
+                f"validation accuracy {sn['val_accuracy']} <= {sn['val_accuracy_majority']} of always answering {sn.get('majority')}"
             )
         return out
 

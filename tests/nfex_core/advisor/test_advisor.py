@@ -17,7 +17,7 @@ SELECT ?extractor ?reason WHERE { FILTER (?reflectance = nfex:reflectance_reflec
 
 
 def test_context_only_selection_gives_a_full_parameter_set_within_ranges(kg: KnowledgeGraph) -> None:
-    sel = Advisor(kg).select({"agent": "car", "motion": "fast", "light": "dark"})
+    sel = Advisor(kg, neural="symbolic").select({"agent": "car", "motion": "fast", "light": "dark"})
     assert sel.mode == "prior"
     vocab = kg.vocabulary()
     for cand in sel.candidates:
@@ -40,7 +40,7 @@ def test_context_only_selection_gives_a_full_parameter_set_within_ranges(kg: Kno
 
 
 def test_a_sparql_rule_added_by_transaction_changes_the_next_selection_and_rollback_restores(kg: KnowledgeGraph) -> None:
-    advisor = Advisor(kg)
+    advisor = Advisor(kg, neural="symbolic")
     ctx = {"reflectance": "reflective", "light": "bright", "texture": "high"}
     before = advisor.select(ctx)
     assert before.extractor == "ORB"

@@ -22,7 +22,7 @@ nfex:shape_test_no_{x} a sh:NodeShape, nfex:ContextShape ; rdfs:label "no {x} on
 
 
 def test_a_shape_added_by_transaction_clamps_then_prunes_and_rollback_restores(kg: KnowledgeGraph) -> None:
-    advisor = Advisor(kg, poll_interval_s=0.0)
+    advisor = Advisor(kg, poll_interval_s=0.0, neural="symbolic")
     before = advisor.select(CTX)
     x = before.extractor
     spec = kg.vocabulary().extractor(x)

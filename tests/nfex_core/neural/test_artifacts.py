@@ -57,3 +57,19 @@ def test_find_model(trained, tmp_path: Path) -> None:  # type: ignore[no-untyped
     shutil.copytree(model.path, tmp_path / "default")
     assert find_model(tmp_path) == tmp_path / "default"
     assert find_model(model.path) == model.path
+
+
+@pytest.mark.parametrize(
+    ("metrics", "gated"),
+    [
+        ({"selectornet": {"val_accuracy": 1.0, "val_accuracy_majority": 1.0, "majority": "SIFT"}}, {"selectornet"}),
+        ({"selectornet": {"val_accuracy": 0.9, "val_accuracy_majority": 0.6, "majority": "SIFT"}}, set()),
+        ({"paramnet": {"val_mse": 0.05, "val_mse_train_mean": 0.05}}, {"paramnet"}),
+        ({"paramnet": {"val_mse": 0.01, "val_mse_train_mean": 0.05}}, set()),
+    ],
+)
+def test_a_network_that_only_ties_its_trivial_baseline_is_gated(trained, metrics, gated) -> None:  # type: ignore[no-untyped-def]
+    """Regression: the shipped SelectorNet tied 'always SIFT' (1.0 vs 1.0) and still decided in 'both'."""
+    _, model = trained
+    model = NeuralModel(**{**model.__dict__, "manifest": {**model.manifest, "metrics": metrics}})
+    assert set(model.validation_gates()) == gated

@@ -65,7 +65,7 @@ def test_a_dsl_require_becomes_a_shape_that_the_advisor_applies_and_remove_takes
     from nfex_core.rules.shape_text import program_shapes
 
     ctx = {"scene": "outdoor", "reflectance": "reflective"}
-    advisor = Advisor(kg, poll_interval_s=0.0)
+    advisor = Advisor(kg, poll_interval_s=0.0, neural="symbolic")
     before = {c.extractor: c.params for c in advisor.select(ctx).candidates}
     triples = kg.triple_count()
     _, graph = programs.compile_text(REQUIRE, kg.vocabulary(), name="site")

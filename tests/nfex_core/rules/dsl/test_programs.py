@@ -29,7 +29,7 @@ def test_the_seeded_default_program_reads_back_as_its_file(kg: KnowledgeGraph) -
 
 
 def test_a_program_changes_the_next_selection_with_its_statement_cited_and_rollback_restores(kg: KnowledgeGraph) -> None:
-    advisor = Advisor(kg)
+    advisor = Advisor(kg, neural="symbolic")
     ctx = {"light": "bright", "texture": "high", "scene": "outdoor"}
     before = advisor.select(ctx)
     assert before.extractor == "ORB"  # default program: prefer ORB in bright, well-textured scenes
