@@ -1,0 +1,73 @@
+"""``nfex sweep``: measure extractor × parameter grid × windows × corruptions and populate the graph."""
+from __future__ import annotations
+
+import shlex
+import sys
+from enum import Enum
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from ..errors import BadInput
+from .common import author as author_of
+from .common import echo_json, open_kg
+
+
+class Executor(str, Enum):
+    local = "local"
+    ray = "ray"
+
+
+def _split(values: list[str]) -> tuple[str, ...]:
+    return tuple(v.strip() for item in values for v in item.split(",") if v.strip())
+
+
+def sweep(
+    path: Annotated[Path, typer.Argument(help="Dataset folder (e.g. $NFEX_DATA/kitti).")],
+    format: Annotated[str, typer.Option("--format", help="kitti | euroc | tum | handheld")] = "kitti",
+    sequence: Annotated[list[str], typer.Option("--sequence", help="Sequence id(s), repeat or comma-separate.")] = [],  # noqa: B006
+    extractors: Annotated[list[str], typer.Option("--extractors", "-x", help="Extractors (default ORB,SIFT).")] = [],  # noqa: B006
+    corruptions: Annotated[list[str], typer.Option("--corruptions", "-c", help="none and/or corruption names.")] = [],  # noqa: B006
+    severity: Annotated[float, typer.Option(help="Corruption severity in [0, 1].")] = 0.7,
+    window: Annotated[int, typer.Option(help="Frames per window.")] = 20,
+    stride: Annotated[int, typer.Option(help="Frames between window starts.")] = 50,
+    max_windows: Annotated[int | None, typer.Option(help="At most this many windows per sequence.")] = None,
+    sample: Annotated[int | None, typer.Option(help="Parameter sets per extractor (default: the whole grid).")] = None,
+    seed: Annotated[int, typer.Option(help="Seed of corruptions and sampling.")] = 0,
+    csv: Annotated[Path, typer.Option("--csv", help="The training table (appended; resumable).")] = Path("out/sweep.csv"),
+    executor: Annotated[Executor, typer.Option(help="local process pool or a Ray cluster.")] = Executor.local,
+    address: Annotated[str | None, typer.Option(help="Ray cluster address (with --executor ray).")] = None,
+    workers: Annotated[int, typer.Option(help="Worker processes (local) or CPUs of a local Ray.")] = 2,
+    batch: Annotated[int, typer.Option(help="Measurements per graph transaction.")] = 32,
+    export: Annotated[Path | None, typer.Option(help="Afterwards, write all measurements as Turtle here.")] = None,
+    author: Annotated[str | None, typer.Option(help="Author recorded on the graph versions.")] = None,
+    json_out: Annotated[bool, typer.Option("--json", help="Print the counts as JSON.")] = False,
+    progress: Annotated[bool, typer.Option(help="Show a progress bar with ETA.")] = True,
+) -> None:
+    """Run the VO for every cell of the grid, write Measurements (one transaction per batch) and the table."""
+    from ..sweeps import RunInfo, SweepSpec, export_measurements
+    from ..sweeps import sweep as run_sweep
+
+    if not path.is_dir():
+        raise BadInput(f"{path}: not a folder")
+    spec = SweepSpec(
+        path=str(path), format=format, sequences=_split(sequence) or ("",), extractors=_split(extractors) or ("ORB", "SIFT"),
+        window=window, stride=stride, max_windows=max_windows, corruptions=_split(corruptions) or ("none",),
+        severity=severity, seed=seed, sample=sample,
+    )
+    if window < 2 or stride < 1:
+        raise BadInput("--window must be at least 2 and --stride at least 1")
+    kg = open_kg()
+    try:
+        run = RunInfo(command="nfex sweep " + " ".join(shlex.quote(a) for a in sys.argv[2:]))
+        counts = run_sweep(spec, kg, csv, run=run, executor=executor.value, workers=workers, address=address,
+                           batch=batch, author=author_of(author), progress=progress)
+        if export is not None:
+            counts["exported_triples"] = export_measurements(kg, export)
+    finally:
+        kg.close()
+    if json_out:
+        echo_json(counts)
+    else:
+        typer.echo(", ".join(f"{k}: {v}" for k, v in counts.items()))

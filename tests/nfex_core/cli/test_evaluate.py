@@ -1,0 +1,27 @@
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import run_cli
+
+
+@pytest.mark.slow
+def test_nfex_evaluate_json_and_files(cli_env: dict[str, str], data_dir: Path, tmp_path: Path) -> None:
+    out = tmp_path / "ev"
+    r = run_cli(["evaluate", str(data_dir / "kitti"), "--format", "kitti", "--sequence", "01", "--frames", "6",
+                 "--methods", "orb-default,orb-dyn", "--out", str(out), "--json", "--no-plots"], cli_env)
+    assert r.returncode == 0, r.stderr
+    doc = json.loads(r.stdout)
+    m = doc["methods"]["orb-default"]
+    assert m["runs"] == 1 and m["failed_runs"] in (0, 1) and m["ms_per_frame"] > 0
+    assert set(doc["methods"]) == {"orb-default", "orb-dyn"}
+    assert (out / "table.md").read_text().startswith("| Method |")
+    assert (out / "runs.csv").exists() and json.loads((out / "result.json").read_text())["sequence"] == "01"
+
+
+def test_nfex_evaluate_unknown_method_exits_2(cli_env: dict[str, str], data_dir: Path, tmp_path: Path) -> None:
+    r = run_cli(["evaluate", str(data_dir / "kitti"), "--sequence", "01", "--methods", "magic"], cli_env)
+    assert r.returncode == 2 and "orb-default" in r.stderr

@@ -1,0 +1,62 @@
+"""A tiny real sweep (KITTI 00, 4-frame windows): rows, labels, Measurements, resume, executors."""
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import pytest
+
+from nfex_core.kg import KnowledgeGraph
+from nfex_core.sweeps import RunInfo, SweepSpec, export_measurements, sweep, table
+
+
+def _spec(data_dir: Path, **kw: object) -> SweepSpec:
+    base: dict[str, object] = dict(path=str(data_dir / "kitti"), format="kitti", sequences=("00",), extractors=("ORB",),
+                                   window=4, stride=100, max_windows=1, corruptions=("none", "dark"), sample=2)
+    base.update(kw)
+    return SweepSpec(**base)  # type: ignore[arg-type]
+
+
+def _measurements(kg: KnowledgeGraph) -> int:
+    return int(kg.select("SELECT (COUNT(?m) AS ?n) WHERE { ?m a nfex:Measurement }").rows[0]["n"].toPython())  # type: ignore[union-attr]
+
+
+@pytest.mark.slow
+def test_sweep_writes_rows_and_measurements_and_resumes(kg: KnowledgeGraph, data_dir: Path, tmp_path: Path) -> None:
+    csv = tmp_path / "t.csv"
+    counts = sweep(_spec(data_dir), kg, csv, run=RunInfo(command="test"), workers=1, batch=3, progress=False)
+    assert counts == {"cells": 4, "skipped": 0, "ran": 4, "committed": 4}
+    rows = table.read(csv)
+    assert len(rows) == 4 and _measurements(kg) == 4
+    assert {r["corruption"] for r in rows} == {"none", "dark"}
+    assert all(r["ctx.agent"] == "car" for r in rows)
+    assert {r["ctx.light"] for r in rows if r["corruption"] == "dark"} == {"dark"}
+    for r in rows:
+        assert r["width"] == "1241" and r["height"] == "376" and float(r["extraction_ms"]) > 0
+        assert float(r["m.texturedness"]) >= 0 and "stat.mean" in r
+    for c in ("none", "dark"):
+        assert sum(int(r["best_overall"]) for r in rows if r["corruption"] == c) == 1
+    # resume: nothing left to do, and a row lost from the table is measured again (and not duplicated)
+    again = sweep(_spec(data_dir), kg, csv, run=RunInfo(command="test"), workers=1, progress=False)
+    assert again["ran"] == 0 and again["skipped"] == 4
+    table.write(csv, rows[1:])
+    third = sweep(_spec(data_dir), kg, csv, run=RunInfo(command="test"), workers=1, progress=False)
+    assert third["ran"] == 1 and len(table.read(csv)) == 4 and _measurements(kg) == 4
+    out = tmp_path / "m.ttl"
+    assert export_measurements(kg, out) > 100
+    assert "nfex:Measurement" in out.read_text()
+
+
+@pytest.mark.slow
+def test_local_process_pool(kg: KnowledgeGraph, data_dir: Path, tmp_path: Path) -> None:
+    counts = sweep(_spec(data_dir, corruptions=("none",)), kg, tmp_path / "t.csv", run=RunInfo(command="test"),
+                   workers=2, progress=False)
+    assert counts["ran"] == 2 and _measurements(kg) == 2
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(importlib.util.find_spec("ray") is None, reason="ray is not installed (pip install 'nfex[ray]')")
+def test_ray_executor_on_a_local_two_cpu_instance(kg: KnowledgeGraph, data_dir: Path, tmp_path: Path) -> None:
+    counts = sweep(_spec(data_dir, corruptions=("none",)), kg, tmp_path / "t.csv", run=RunInfo(command="test"),
+                   executor="ray", workers=2, progress=False)
+    assert counts["ran"] == 2 and _measurements(kg) == 2

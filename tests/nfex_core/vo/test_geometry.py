@@ -1,0 +1,50 @@
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from nfex_core.vo.geometry import relative_pose, triangulate
+
+K = np.array([[700.0, 0, 620], [0, 700.0, 190], [0, 0, 1]])
+
+
+def _rot(rx: float, ry: float, rz: float) -> np.ndarray:
+    import cv2
+
+    return cv2.Rodrigues(np.array([rx, ry, rz]))[0]
+
+
+def _project(X: np.ndarray) -> np.ndarray:
+    x = X @ K.T
+    return x[:, :2] / x[:, 2:]
+
+
+@settings(max_examples=10, deadline=None)
+@given(
+    angles=st.tuples(*[st.floats(-0.05, 0.05)] * 3),
+    direction=st.tuples(st.floats(-0.3, 0.3), st.floats(-0.1, 0.1), st.just(1.0)),
+    seed=st.integers(0, 10_000),
+)
+def test_relative_pose_recovers_rotation_and_direction(angles, direction, seed) -> None:  # type: ignore[no-untyped-def]
+    """X₂ = R X₁ + t for random scenes: R to 1e-3 rad, t's direction to 1e-2, every exact point an inlier."""
+    rng = np.random.default_rng(seed)
+    X1 = np.column_stack([rng.uniform(-20, 20, 300), rng.uniform(-5, 5, 300), rng.uniform(4, 40, 300)])
+    R = _rot(*angles)
+    t = np.array(direction) / np.linalg.norm(direction)
+    X2 = X1 @ R.T + t
+    rel = relative_pose(_project(X1), _project(X2), K)
+    assert rel is not None
+    dR = rel.R @ R.T
+    assert np.arccos(np.clip((np.trace(dR) - 1) / 2, -1, 1)) < 1e-3
+    assert np.linalg.norm(rel.t - t) < 1e-2
+    assert rel.inliers.mean() > 0.95
+    # triangulation with the true motion puts the points back where they were, in camera 2
+    Y, ok = triangulate(_project(X1), _project(X2), K, R, t)
+    assert ok.all()
+    assert np.allclose(Y, X2, rtol=1e-6, atol=1e-6)
+
+
+def test_too_few_points_is_no_model() -> None:
+    p = np.zeros((4, 2))
+    assert relative_pose(p, p, K) is None
