@@ -2,6 +2,7 @@
 
     frame + context ─► conditions: fill unknown dimensions from the frame (vision.context)
                     ─► symbolic: candidates C(E) with the rules that pruned the others (rules.engine)
+                    ─► budget: expected cost per candidate at the frame's size; fit Θ′ or prune (budget)
                     ─► params: Θ′ per candidate = g(Θ, E), clamped to the graph's ranges (fitness)
                     ─► selection: α* = argmax over C(E) of F_metrics on the frame (fitness, vision)
                     ─► Selection {α*, Θ′, scores, pruned + reasons, context used, versions, timings}
@@ -22,10 +23,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import NoCandidate
-from ..fitness import adjust_params, f_metrics
+from ..errors import BadInput, NoCandidate
+from ..fitness import Adjustment, adjust_params, f_metrics
 from ..kg.vocab import Vocabulary
+from ..kg.vocab import Value
 from ..rules.engine import Decision, RuleEngine, RuleTable
+from .budget import Budget, BudgetOutcome, apply_budget, cheapest, resolve_budget
 from .selection import CandidateScore, ContextEntry, PrunedCandidate, Selection
 
 if TYPE_CHECKING:
@@ -41,7 +44,7 @@ class Snapshot:
     taken_at: float = field(default_factory=time.monotonic)
     _registry: Any = None
     # context-only answers depend on the decision alone: computed once per context and snapshot
-    _priors: dict[int, list[CandidateScore]] = field(default_factory=dict)
+    _priors: dict[tuple[Any, ...], tuple[list[CandidateScore], BudgetOutcome | None]] = field(default_factory=dict)
 
     @property
     def registry(self) -> Any:
@@ -114,10 +117,17 @@ class Advisor:
     # ------------------------------------------------------------------ the flow
     def select(
         self,
-        context: Mapping[str, str | None] | None = None,
+        context: Mapping[str, Any] | None = None,
         frame: np.ndarray | None = None,
         previous: FrameState | None = None,
+        *,
+        budget_ms: float | None = None,
+        compute: str | None = None,
+        frame_size: tuple[int, int] | None = None,
     ) -> Selection:
+        """The flow for one request. ``budget_ms`` (per-frame extraction time the client can afford) and
+        ``compute`` (a compute class of the graph) may also come as context keys of those names;
+        ``frame_size`` (W, H) sizes the cost check when no frame is sent."""
         timings: dict[str, float] = {}
         t = time.perf_counter()
 
@@ -128,7 +138,11 @@ class Advisor:
             t = now
 
         snap = self.snapshot()
-        given = snap.vocab.check_context(context or {})
+        ctx = dict(context or {})
+        budget_ms = _budget_number(ctx.pop("budget_ms", None) if budget_ms is None else budget_ms)
+        compute = compute or ctx.pop("compute", None)
+        ctx.pop("compute", None)
+        given = snap.vocab.check_context(ctx)
         image = None
         if frame is not None:
             from ..vision.registry import as_grey_u8  # imports cv2: only when a frame comes
@@ -144,18 +158,24 @@ class Advisor:
                 + "; ".join(f"{x}: {cs[0].reason} [{cs[0].label}]" for x, cs in decision.pruned.items()),
                 pruned=[PrunedCandidate(x, cs).as_dict() for x, cs in decision.pruned.items()],
             )
+        size = (int(image.shape[1]), int(image.shape[0])) if image is not None else frame_size
+        budget = resolve_budget(snap.table.budget_terms, snap.table.cost, values, budget_ms, compute, size,
+                                "frame" if image is not None else "given")
         lap("symbolic")
-        scored, state, mode = self._score(snap, decision, image, previous)
+        scored, state, mode, outcome = self._score(snap, decision, budget, image, previous)
         lap("selection")
-        best = max(scored, key=lambda c: (c.score if c.score is not None else -np.inf, -_cost(decision, c.extractor)))
+        best = max(scored, key=lambda c: (c.score if c.score is not None else -np.inf, -_cost(decision, c)))
         spec = snap.vocab.extractor(best.extractor)
         timings["total"] = sum(timings.values())
+        pruned = {x: tuple(cs) for x, cs in decision.pruned.items()}
+        if outcome is not None:
+            pruned.update({x: cs for x, cs in outcome.pruned.items() if x != best.extractor})
         return Selection(
             extractor=best.extractor,
             params=dict(best.params),
             mode=mode,
             candidates=tuple(sorted(scored, key=lambda c: -(c.score if c.score is not None else -np.inf))),
-            pruned=tuple(PrunedCandidate(x, cs) for x, cs in sorted(decision.pruned.items())),
+            pruned=tuple(PrunedCandidate(x, cs) for x, cs in sorted(pruned.items())),
             context=tuple(entries),
             weights=dict(decision.weights),
             versions={"graph": snap.version, "programs": snap.programs, "rules": len(snap.table.rules)},
@@ -163,7 +183,34 @@ class Advisor:
             constructor=spec.constructor,
             norm=spec.norm_for(best.params),
             state=state,
+            budget=budget.as_dict() if budget is not None else None,
+            warnings=tuple(outcome.warnings) if outcome is not None else (),
         )
+
+    def _theta(
+        self, snap: Snapshot, decision: Decision, budget: Budget | None, pixels: int | None
+    ) -> tuple[dict[str, dict[str, Value]], dict[str, list[Adjustment]], BudgetOutcome | None]:
+        """Θ′ = g(Θ, E) per candidate, then the budget's cost check (fit or prune) when one is in force."""
+        theta: dict[str, dict[str, Value]] = {}
+        adjustments: dict[str, list[Adjustment]] = {}
+        for x in decision.candidates:
+            theta[x], adjustments[x] = adjust_params(snap.vocab.extractor(x), decision.factors.get(x, {}), pixels=pixels)
+        if budget is None:
+            return theta, adjustments, None
+        table = snap.table
+        outcome = apply_budget(table.cost, table.budget_terms, snap.vocab.extractors, theta, budget)
+        if not outcome.params:
+            x, params, adj, e = cheapest(table.cost, table.budget_terms, snap.vocab.extractors, theta, budget)
+            outcome.params[x] = params
+            outcome.adjustments[x] = adj
+            outcome.estimates[x] = e
+            outcome.warnings.append(
+                f"every candidate's expected extraction time exceeds the budget {budget.ms:g} ms; running the cheapest, "
+                f"{x} at {e.describe()}"
+            )
+        for x, adj in outcome.adjustments.items():
+            adjustments[x] = [*adjustments[x], *adj]
+        return {x: outcome.params[x] for x in theta if x in outcome.params}, adjustments, outcome
 
     def _conditions(
         self, vocab: Vocabulary, given: dict[str, str], image: np.ndarray | None, previous: FrameState | None
@@ -191,25 +238,32 @@ class Advisor:
         return entries, values
 
     def _score(
-        self, snap: Snapshot, decision: Decision, image: np.ndarray | None, previous: FrameState | None
-    ) -> tuple[list[CandidateScore], FrameState | None, str]:
+        self, snap: Snapshot, decision: Decision, budget: Budget | None, image: np.ndarray | None, previous: FrameState | None
+    ) -> tuple[list[CandidateScore], FrameState | None, str, BudgetOutcome | None]:
         vocab = snap.vocab
         if image is None:
-            priors = snap._priors.get(id(decision))
-            if priors is None:
-                priors = snap._priors[id(decision)] = [self._prior(snap, decision, x) for x in decision.candidates]
-            return list(priors), None, "prior"  # shared, frozen CandidateScores: read-only
+            key = (id(decision), None if budget is None else tuple(budget.as_dict().values()))
+            cached = snap._priors.get(key)
+            if cached is None:
+                theta, adjustments, outcome = self._theta(snap, decision, budget, None)
+                priors = [self._prior(snap, decision, x, theta[x], adjustments[x], outcome) for x in theta]
+                cached = snap._priors[key] = (priors, outcome)
+            return list(cached[0]), None, "prior", cached[1]  # shared, frozen CandidateScores: read-only
         small = downscale(image, self.score_max_side)
         from ..vision.metrics import compute_metrics
 
+        theta, adjustments, outcome = self._theta(snap, decision, budget, int(image.shape[0] * image.shape[1]))
         out: list[CandidateScore] = []
         features: dict[str, Any] = {}
-        for x in decision.candidates:
+        for x, params in theta.items():
             spec = vocab.extractor(x)
-            factors = decision.factors.get(x, {})
-            params, adjustments = adjust_params(spec, factors, pixels=int(image.shape[0] * image.shape[1]))
             # F_metrics is measured on the scoring image, with count parameters scaled to its size
-            score_params, _ = adjust_params(spec, factors, pixels=int(small.shape[0] * small.shape[1]))
+            score_params, _ = adjust_params(spec, decision.factors.get(x, {}), pixels=int(small.shape[0] * small.shape[1]))
+            for a in adjustments[x]:
+                if any(c.kind == "budget" for c in a.citations):
+                    p = spec.parameters[a.parameter]
+                    ratio = a.factor if p.scales_with_resolution else None
+                    score_params[a.parameter] = p.clamp(float(score_params[a.parameter]) * ratio) if ratio else a.after
             feats = snap.registry.extract(x, small, score_params)
             features[x] = feats
             prev = None
@@ -224,18 +278,24 @@ class Advisor:
                     score=f_metrics(metrics, decision.weights, vocab.metrics, bonus),
                     bonus=bonus,
                     metrics={k: round(v, 6) for k, v in metrics.items()},
-                    adjustments=tuple(adjustments),
+                    adjustments=tuple(adjustments[x]),
                     keypoints=len(feats.xy),
                     extraction_ms=round(feats.elapsed_ms, 3),
-                    evidence=_evidence_dict(decision, x),
+                    evidence=_evidence_dict(decision, x, outcome),
                 )
             )
-        return out, FrameState(small, features), "metrics"
+        return out, FrameState(small, features), "metrics", outcome
 
-    def _prior(self, snap: Snapshot, decision: Decision, x: str) -> CandidateScore:
+    def _prior(
+        self,
+        snap: Snapshot,
+        decision: Decision,
+        x: str,
+        params: dict[str, Value],
+        adjustments: list[Adjustment],
+        outcome: BudgetOutcome | None,
+    ) -> CandidateScore:
         """Without a frame: the preference bonus plus measured accuracy (best mean ATE / this one's)."""
-        spec = snap.vocab.extractor(x)
-        params, adjustments = adjust_params(spec, decision.factors.get(x, {}))
         bonus = decision.bonuses[x].value if x in decision.bonuses else 0.0
         measured = [e.mean_ate for e in decision.evidence.values() if e.mean_ate]
         own = decision.evidence.get(x)
@@ -246,17 +306,37 @@ class Advisor:
             score=bonus + accuracy,
             bonus=bonus,
             adjustments=tuple(adjustments),
-            evidence=_evidence_dict(decision, x),
+            evidence=_evidence_dict(decision, x, outcome),
         )
 
 
-def _evidence_dict(decision: Decision, x: str) -> dict[str, Any]:
-    e = decision.evidence.get(x)
-    if e is None:
-        return {}
-    return {"mean_ate_m": e.mean_ate, "windows": e.windows, "extraction_ms": e.extraction_ms}
+def _budget_number(value: Any) -> float | None:
+    if value is None:
+        return None
+    try:
+        ms = float(value)
+    except (TypeError, ValueError):
+        raise BadInput(f"budget_ms must be a number of milliseconds, got {value!r}") from None
+    if not ms > 0 or ms == float("inf"):
+        raise BadInput(f"budget_ms must be a positive number of milliseconds, got {value!r}")
+    return ms
 
 
-def _cost(decision: Decision, x: str) -> float:
+def _evidence_dict(decision: Decision, x: str, outcome: BudgetOutcome | None = None) -> dict[str, Any]:
     e = decision.evidence.get(x)
+    out: dict[str, Any] = {}
+    if e is not None:
+        out = {"mean_ate_m": e.mean_ate, "windows": e.windows, "extraction_ms": e.extraction_ms}
+    if outcome is not None and x in outcome.estimates:
+        est = outcome.estimates[x]
+        out["expected_ms"] = round(est.ms, 3) if est.ms is not None else None
+        out["cost_source"] = est.source
+    return out
+
+
+def _cost(decision: Decision, c: CandidateScore) -> float:
+    """Tie-break: the budget's expected time where known, else the measured mean extraction time."""
+    if c.evidence.get("expected_ms") is not None:
+        return float(c.evidence["expected_ms"])
+    e = decision.evidence.get(c.extractor)
     return e.extraction_ms if e is not None and e.extraction_ms is not None else float("inf")

@@ -6,6 +6,8 @@ every DSL statement for all contexts, and stores a ``Decision`` per context: the
 extractors with the rules that pruned them, the parameter factors f_kj, the metric weights h_x, the
 preference bonuses, the ``require`` constraints in force, and the measured evidence per extractor. A
 request then pays one dictionary lookup. ``compile_table`` runs again when the graph version changes.
+The same step fits the cost model (nfex_core/cost.py) and reads the budget terms, so a request's
+budget check (advisor/budget.py) costs arithmetic only.
 
 Composition (paper §IV-A): several ``adjust`` statements on one parameter multiply
 (w_k = Π_j f_kj(e_j)); several ``weight`` statements on one metric multiply (h_x(E), default 1);
@@ -22,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 from rdflib.term import URIRef
 
+from ..cost import BudgetTerms, CostModel, fit_cost_model
 from . import pruning
 from .statements import Statement, load_statements
 
@@ -86,6 +89,8 @@ class RuleTable:
     statements: list[Statement]
     errors: list[str]
     compile_ms: float
+    cost: CostModel = field(default_factory=CostModel)
+    budget_terms: BudgetTerms = field(default_factory=BudgetTerms)
 
     def key(self, context: Mapping[str, str | None]) -> ContextKey:
         return tuple(context.get(d) for d in self.dimensions)
@@ -191,9 +196,11 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
             requires=tuple(requires),
             evidence={x: e for x, e in ev.items() if e.windows},
         )
+    cost = fit_cost_model(kg, vocab.extractors)
+    budget_terms = BudgetTerms.load(kg)
     ms = (time.perf_counter() - t0) * 1000
     log.info("compiled %d contexts, %d rules, %d statements at graph version %d in %.0f ms", len(keys), len(rules), len(statements), version, ms)
-    return RuleTable(version, dims, decisions, rules, statements, errors, ms)
+    return RuleTable(version, dims, decisions, rules, statements, errors, ms, cost, budget_terms)
 
 
 class RuleEngine:

@@ -38,7 +38,7 @@ def test_health_readiness_and_vocabulary(service: str) -> None:
     assert ready["status"] == "ready" and ready["graph_version"] == 1
     vocab = httpx.get(service + "/v1/vocabulary").json()
     assert vocab["context"]["light"]["values"] == ["dark", "bright"]
-    assert set(vocab["extractors"]) == {"ORB", "SIFT", "AKAZE", "BRISK"}
+    assert set(vocab["extractors"]) == {"ORB", "ORB_GRID", "SIFT", "AKAZE", "BRISK"}
 
 
 def test_unknown_route_is_problem_json(service: str) -> None:
