@@ -11,13 +11,14 @@ by least squares over the extractor's measured (configuration, size) groups, kee
 terms only where the data varies them, every measured NF is a real cap (not 0 = unlimited) and the
 fitted coefficient is positive. The expected cost of a configuration is then, in this order:
 
-1. ``measured``: the configuration was measured — its mean ms per megapixel × P;
-2. ``model``: the extractor's model with its parameter terms;
-3. ``fallback``: the extractor's mean ms per megapixel × P (the model without parameter terms),
+1. ``measured``: the configuration was measured at this frame size — its mean time;
+2. ``model``: the extractor's model, where it has a features or levels term;
+3. ``scaled``: the configuration was measured at other sizes — its mean ms per megapixel × P;
+4. ``fallback``: the extractor's mean ms per megapixel × P (this configuration was never measured),
    cited as such;
-4. unknown (None) when the extractor was never measured.
+5. unknown (None) when the extractor was never measured.
 
-Tiers 1 and 3 are SPARQL-answerable as they stand (``expected_cost_query``); tier 2 is the fit.
+Tiers 1, 3 and 4 are SPARQL-answerable as they stand (``expected_cost_query``); tier 2 is the fit.
 Timings compare only on one machine: the model uses every Measurement, whatever machine ran it.
 """
 from __future__ import annotations
@@ -46,7 +47,7 @@ MEASURED_SETTINGS = """SELECT ?cfg ?name ?v WHERE {
 
 
 def expected_cost_query(configuration: str, extractor: str, width: int, height: int) -> str:
-    """SPARQL for tiers 1 and 3: the configuration's measured ms/megapixel, else its extractor's, × W·H.
+    """SPARQL for tiers 1, 3 and 4: the configuration's time at W×H, else its (or its extractor's) ms/MP × W·H.
 
     Configuration IRIs are content-derived (``sweeps.records.configuration_iri``), so a client can
     name one that was never measured and get the extractor's fallback.
@@ -54,15 +55,17 @@ def expected_cost_query(configuration: str, extractor: str, width: int, height: 
     return f"""PREFIX nfex: <https://w3id.org/nfex#>
 PREFIX sosa: <http://www.w3.org/ns/sosa/>
 SELECT ?expectedMs ?source ?measurements WHERE {{
+  {{ SELECT (AVG(?ms0) AS ?sizeMs) (COUNT(?m0) AS ?sizeN) WHERE {{
+      ?m0 sosa:usedProcedure <{configuration}> ; nfex:extractionMs ?ms0 ; nfex:frameWidth {int(width)} ; nfex:frameHeight {int(height)} . }} }}
   {{ SELECT (AVG(?ms * 1000000 / (?w * ?h)) AS ?cfgRate) (COUNT(?m) AS ?cfgN) WHERE {{
       ?m sosa:usedProcedure <{configuration}> ; nfex:extractionMs ?ms ; nfex:frameWidth ?w ; nfex:frameHeight ?h . }} }}
   {{ SELECT (AVG(?ms2 * 1000000 / (?w2 * ?h2)) AS ?xRate) (COUNT(?m2) AS ?xN) WHERE {{
       ?m2 sosa:usedProcedure/nfex:ofExtractor/nfex:token "{extractor}" ;
           nfex:extractionMs ?ms2 ; nfex:frameWidth ?w2 ; nfex:frameHeight ?h2 . }} }}
   FILTER (?cfgN > 0 || ?xN > 0)
-  BIND (IF(?cfgN > 0, ?cfgRate, ?xRate) * {int(width) * int(height)} / 1000000 AS ?expectedMs)
-  BIND (IF(?cfgN > 0, "measured", "fallback") AS ?source)
-  BIND (IF(?cfgN > 0, ?cfgN, ?xN) AS ?measurements)
+  BIND (IF(?sizeN > 0, ?sizeMs, IF(?cfgN > 0, ?cfgRate, ?xRate) * {int(width) * int(height)} / 1000000) AS ?expectedMs)
+  BIND (IF(?sizeN > 0, "measured", IF(?cfgN > 0, "scaled", "fallback")) AS ?source)
+  BIND (IF(?sizeN > 0, ?sizeN, IF(?cfgN > 0, ?cfgN, ?xN)) AS ?measurements)
 }}"""
 
 
@@ -78,8 +81,9 @@ class Estimate:
         if self.ms is None:
             return "no extraction time measured for this extractor"
         how = {
-            "measured": "this configuration's measured time per megapixel",
+            "measured": "this configuration's measured time at this frame size",
             "model": "the extractor's cost model (pixels, features, levels)",
+            "scaled": "this configuration's measured time per megapixel at other frame sizes",
             "fallback": "the extractor's mean time per megapixel (this configuration was never measured)",
         }[self.source]
         return f"{self.ms:.1f} ms from {how}, {self.measurements} measurements"
@@ -122,20 +126,25 @@ class CostModel:
     """Per-graph-version expected costs (see the module docstring for the tiers)."""
 
     configurations: dict[str, tuple[float, int]] = field(default_factory=dict)  # key → (ms per MP, n)
+    at_size: dict[tuple[str, int, int], tuple[float, int]] = field(default_factory=dict)  # (key, W, H) → (ms, n)
     extractors: dict[str, ExtractorCost] = field(default_factory=dict)
     typical_size: tuple[int, int] | None = None  # the (W, H) most measurements were made at
 
     def expected(self, spec: ExtractorSpec, params: Mapping[str, Value], width: int, height: int) -> Estimate:
         pixels = int(width) * int(height)
         full = spec.resolve(params)
-        hit = self.configurations.get(config_key(spec.name, full))
-        if hit is not None:
-            return Estimate(hit[0] * pixels / 1e6, "measured", hit[1])
+        key = config_key(spec.name, full)
+        exact = self.at_size.get((key, int(width), int(height)))
+        if exact is not None:
+            return Estimate(exact[0], "measured", exact[1])
         model = self.extractors.get(spec.name)
         if model is None:
             return Estimate(None, "unknown")
         if model.has_terms:
             return Estimate(model.predict(full, pixels), "model", model.measurements)
+        hit = self.configurations.get(key)
+        if hit is not None:
+            return Estimate(hit[0] * pixels / 1e6, "scaled", hit[1])
         return Estimate(model.mean_per_mp * pixels / 1e6, "fallback", model.measurements)
 
     def as_dict(self) -> dict[str, Any]:
@@ -153,6 +162,8 @@ class BudgetTerms:
     agent_defaults: Mapping[str, float] = field(default_factory=dict)
     compute: Mapping[str, float] = field(default_factory=dict)
     labels: Mapping[str, str] = field(default_factory=dict)
+    relative_rules: frozenset[str] = frozenset()  # rules with nfex:relativeToBest true
+    max_relative_ate: float | None = None  # nfex:maxRelativeAte
 
     @classmethod
     def load(cls, kg: KnowledgeGraph) -> BudgetTerms:
@@ -168,7 +179,9 @@ class BudgetTerms:
             str(r["r"]): str(r["label"])
             for r in kg.select("SELECT ?r ?label WHERE { ?r a nfex:BudgetRule ; rdfs:label ?label }").rows
         }
-        return cls(agents, compute, labels)
+        relative = frozenset(str(r["r"]) for r in kg.select("SELECT ?r WHERE { ?r nfex:relativeToBest true }").rows)
+        factor = kg.select("SELECT ?v WHERE { nfex:maxRelativeAte nfex:value ?v }").rows
+        return cls(agents, compute, labels, relative, float(factor[0]["v"].toPython()) if factor else None)  # type: ignore[union-attr]
 
 
 def _role(spec: ExtractorSpec, role: str) -> str | None:
@@ -242,6 +255,10 @@ def fit_cost_model(kg: KnowledgeGraph, extractors: Mapping[str, ExtractorSpec]) 
         except Exception:  # a configuration the current vocabulary no longer accepts: not comparable
             continue
         per_x.setdefault(x, []).append((full, w * h, mean, n))
+        old = model.at_size.get((config_key(x, full), w, h))
+        if old is not None:  # one configuration from several IRIs (e.g. settings listed differently)
+            mean, n = (old[0] * old[1] + mean * n) / (old[1] + n), old[1] + n
+        model.at_size[(config_key(x, full), w, h)] = (mean, n)
         per_cfg.setdefault(config_key(x, full), []).append((mean * 1e6 / (w * h), n))
         sizes[(w, h)] = sizes.get((w, h), 0) + n
     for key, items in per_cfg.items():

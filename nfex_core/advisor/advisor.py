@@ -169,6 +169,8 @@ class Advisor:
         timings["total"] = sum(timings.values())
         pruned = {x: tuple(cs) for x, cs in decision.pruned.items()}
         if outcome is not None:
+            for x in outcome.readmitted:
+                pruned.pop(x, None)
             pruned.update({x: cs for x, cs in outcome.pruned.items() if x != best.extractor})
         return Selection(
             extractor=best.extractor,
@@ -198,9 +200,33 @@ class Advisor:
         if budget is None:
             return theta, adjustments, None
         table = snap.table
-        outcome = apply_budget(table.cost, table.budget_terms, snap.vocab.extractors, theta, budget)
+        terms = table.budget_terms
+        # what a relative-accuracy rule pruned is re-judged against the best *affordable* extractor
+        relative = [x for x, cs in decision.pruned.items() if cs and all(c.rule in terms.relative_rules for c in cs)]
+        for x in relative:
+            theta[x], adjustments[x] = adjust_params(snap.vocab.extractor(x), decision.factors.get(x, {}), pixels=pixels)
+        outcome = apply_budget(table.cost, terms, snap.vocab.extractors, theta, budget)
+        pool = dict(theta)  # the fallback may also take what was pruned relative to an unaffordable best
+        ates = {x: e.mean_ate for x, e in decision.evidence.items() if e.mean_ate}
+        best = min((ates[x] for x in outcome.params if x in ates), default=None)
+        for x in relative:
+            ok = x in outcome.params and x in ates and best is not None and terms.max_relative_ate is not None
+            if ok and ates[x] <= terms.max_relative_ate * best and best > min(ates.values()):  # type: ignore[operator]
+                outcome.readmitted[x] = (
+                    f"re-admitted: mean ATE {ates[x]:.3g} m is within {terms.max_relative_ate:g}x the best affordable "
+                    f"extractor's {best:.3g} m; the more accurate ones are over the budget"
+                )
+                outcome.warnings.append(f"{x}: {outcome.readmitted[x]}")
+                continue
+            for d in (outcome.params, outcome.estimates, outcome.adjustments, outcome.pruned):
+                d.pop(x, None)  # type: ignore[attr-defined]
+            theta.pop(x)
         if not outcome.params:
-            x, params, adj, e = cheapest(table.cost, table.budget_terms, snap.vocab.extractors, theta, budget)
+            x, params, adj, e = cheapest(table.cost, terms, snap.vocab.extractors, pool, budget)
+            if x in relative:
+                outcome.readmitted[x] = "re-admitted as the cheapest extractor: nothing fits the budget"
+            theta[x] = pool[x]
+            outcome.pruned.pop(x, None)
             outcome.params[x] = params
             outcome.adjustments[x] = adj
             outcome.estimates[x] = e

@@ -11,9 +11,15 @@ frame's size, times the client's compute-class factor. Over the budget:
    ``nfex:rule_budget_fit`` — this is what keeps a better extractor inside the budget;
 2. else prune it, citing ``nfex:rule_budget`` with the expected and allowed times.
 
+A rule marked ``nfex:relativeToBest`` (measured ATE over k× the best extractor's) judges against the
+best of *all* extractors; under a budget the advisor re-admits what it pruned when that extractor is
+affordable and within k× the best *affordable* extractor's mean ATE (the Decision's evidence), saying so.
+
 If the budget prunes every candidate, the advisor falls back to the cheapest one (a front end needs
 features every frame) and says so in the selection's warnings; NoCandidate stays for candidates the
-accuracy rules prune. A candidate whose cost was never measured is kept, with a warning.
+accuracy rules prune. A candidate whose extractor has no measured cost is pruned under a budget (it
+cannot be shown to fit); when the graph has no cost measurements at all the budget is not applied
+and the selection warns.
 """
 from __future__ import annotations
 
@@ -85,6 +91,7 @@ class BudgetOutcome:
     pruned: dict[str, tuple[Citation, ...]]
     estimates: dict[str, Estimate]
     warnings: list[str]
+    readmitted: dict[str, str] = field(default_factory=dict)  # pruned relative to an unaffordable best
 
 
 def _expected(cost: CostModel, spec: ExtractorSpec, theta: Mapping[str, Value], b: Budget) -> Estimate:
@@ -129,14 +136,18 @@ def apply_budget(
 ) -> BudgetOutcome:
     """Check every candidate's expected time against the budget: keep, fit Θ′, or prune (with citations)."""
     out = BudgetOutcome({}, {}, {}, {}, [])
+    if not cost.extractors:
+        out.warnings.append("the graph has no measured extraction times: the budget was not applied")
     allowed = f"the budget {b.ms:g} ms ({b.source}, compute {b.compute} ×{b.factor:g}, {b.width}×{b.height})"
     for x, params in theta.items():
         spec = specs[x]
         e = _expected(cost, spec, params, b)
         out.estimates[x] = e
-        if e.ms is None:
+        if e.ms is None and not cost.extractors:  # nothing measured at all: the budget cannot be applied
             out.params[x] = dict(params)
-            out.warnings.append(f"{x}: no extraction time measured; kept without a cost check")
+            continue
+        if e.ms is None:
+            out.pruned[x] = (citation(terms, BUDGET_RULE, f"{e.describe()}, so it cannot be shown to fit {allowed}"),)
             continue
         if e.ms <= b.ms:
             out.params[x] = dict(params)
