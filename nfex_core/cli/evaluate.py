@@ -23,7 +23,8 @@ def evaluate(
     corruption: Annotated[list[str], typer.Option("--corruption", "-c", help="none and/or corruption names.")] = [],  # noqa: B006
     severity: Annotated[float, typer.Option(help="Corruption severity in [0, 1].")] = 0.7,
     budget_ms: Annotated[list[float], typer.Option("--budget-ms", help="Also run nFEX at this per-frame budget (repeatable).")] = [],  # noqa: B006
-    frames: Annotated[int | None, typer.Option(help="Only the first N frames.")] = None,
+    frames: Annotated[int | None, typer.Option(help="Only the first N frames (after --step).")] = None,
+    step: Annotated[int, typer.Option(help="Every STEP-th frame (e.g. 3 for a 30 Hz handheld video).")] = 1,
     out: Annotated[Path, typer.Option("--out", help="Folder for table.md, runs.csv, result.json and plots.")] = Path("out/evaluate"),
     plots: Annotated[bool, typer.Option(help="Draw the plots.")] = True,
     json_out: Annotated[bool, typer.Option("--json", help="Print the result as JSON instead of the table.")] = False,
@@ -42,7 +43,11 @@ def evaluate(
             raise BadInput(f"unknown method {m!r}; known: {', '.join(METHODS)}")
     if runs < 1:
         raise BadInput("--runs must be at least 1")
+    if step < 1:
+        raise BadInput("--step must be at least 1")
     seq = open_sequence(path, format, sequence)
+    if step > 1:
+        seq = seq[::step]
     if seq.poses is None:
         raise BadInput(f"{path}: the sequence has no ground truth; ATE needs it")
     kg = open_kg()

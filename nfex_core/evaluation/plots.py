@@ -69,9 +69,9 @@ def draw(ev: Evaluation, out: Path) -> list[Path]:
     sel = [r for r in ev.records if r.method == "nfex" and r.budget_ms is None and r.result is not None]
     if sel:
         fig, ax = plt.subplots(figsize=(8, 2.5))
+        kinds = sorted({f.extractor for r in sel for f in r.result.frames})  # type: ignore[union-attr]
         for i, r in enumerate(sel[: len(conds)]):
             names = [f.extractor for f in r.result.frames]  # type: ignore[union-attr]
-            kinds = sorted(set(names))
             ax.scatter([f.index for f in r.result.frames], [kinds.index(n) + i * 0.1 for n in names], s=8,  # type: ignore[union-attr]
                        label=r.corruption)
             ax.set_yticks(range(len(kinds)))

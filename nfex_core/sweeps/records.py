@@ -70,7 +70,7 @@ class RunInfo:
     """Provenance of one sweep or evaluation run."""
 
     command: str
-    started: datetime = field(default_factory=lambda: datetime.now(UTC))
+    started: datetime = field(default_factory=lambda: datetime.now(UTC).replace(microsecond=0))  # HermiT rejects µs
     id: str = field(default_factory=lambda: uuid.uuid4().hex[:12])
     code: str = field(default_factory=code_version)
     cpu: str = field(default_factory=cpu_model)

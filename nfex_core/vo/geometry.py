@@ -58,13 +58,13 @@ def match(prev: Features, cur: Features, ratio: float = 0.8) -> MatchResult:
 
 
 def undistort(xy: np.ndarray, intrinsics: Intrinsics) -> np.ndarray:
-    """Pixel coordinates with lens distortion removed (OpenCV radial-tangential model; others as given)."""
-    if not intrinsics.distortion or intrinsics.distortion_model != "radtan" or len(xy) == 0:
+    """Pixel coordinates with lens distortion removed, for any lens model the loaders know
+    (``datasets.camera``: OpenCV radial-tangential, the handheld set's radial model on pixels)."""
+    if not intrinsics.distortion or len(xy) == 0:
         return xy.astype(np.float64)
-    pts = cv2.undistortPoints(
-        xy.reshape(-1, 1, 2).astype(np.float64), intrinsics.K, np.asarray(intrinsics.distortion), P=intrinsics.K
-    )
-    return pts.reshape(-1, 2)
+    from ..datasets.camera import undistort_points
+
+    return undistort_points(intrinsics, xy).astype(np.float64)
 
 
 def relative_pose(
