@@ -40,7 +40,8 @@ def add_rows(kg: KnowledgeGraph, rows: list[dict[str, Any]]) -> None:
 
 
 @pytest.fixture
-def measured(kg: KnowledgeGraph) -> KnowledgeGraph:
+def measured(bare_kg: KnowledgeGraph) -> KnowledgeGraph:
+    kg = bare_kg
     rows = []
     for i, (nf, nl) in enumerate((nf, nl) for nf in (500, 1000, 2000) for nl in (4, 8)):
         for j, (w, h) in enumerate(((1241, 376), (640, 480))):
@@ -98,7 +99,8 @@ def test_the_graph_answers_expected_cost_by_sparql_like_the_model(measured: Know
     assert measured.select(expected_cost_query(str(cfg2), "BRISK", 640, 480)).rows == []
 
 
-def test_a_term_the_data_does_not_support_is_dropped(kg: KnowledgeGraph) -> None:
+def test_a_term_the_data_does_not_support_is_dropped(bare_kg: KnowledgeGraph) -> None:
+    kg = bare_kg
     # cost falls with nfeatures here (noise): a negative coefficient must not survive
     rows = [row(kg, "ORB", {"nfeatures": nf}, ms, f"c{nf}") for nf, ms in ((500, 12.0), (1000, 11.0), (2000, 10.5))]
     add_rows(kg, rows)
@@ -120,7 +122,8 @@ def test_predicted_cost_scales_monotonically(a: float, b: float, c: float, w: in
     assert m.predict({"nfeatures": nf, "nlevels": nl}, 2 * w * h) >= base
 
 
-def test_an_extractor_never_measured_has_no_model(kg: KnowledgeGraph) -> None:
+def test_an_extractor_never_measured_has_no_model(bare_kg: KnowledgeGraph) -> None:
+    kg = bare_kg
     model = fit_cost_model(kg, {"BRISK": kg.vocabulary().extractor("BRISK")})
     assert model.extractors == {} and model.typical_size is None
     assert json.loads(json.dumps(model.as_dict()))["measured_configurations"] == 0

@@ -18,7 +18,8 @@ CTX = {"agent": "car", "motion": "slow", "scene": "outdoor"}
 
 
 @pytest.fixture
-def measured(kg: KnowledgeGraph) -> KnowledgeGraph:
+def measured(bare_kg: KnowledgeGraph) -> KnowledgeGraph:
+    kg = bare_kg
     """SIFT accurate and slow; ORB fast, 7.5× SIFT's ATE (so the relative-ATE rule prunes it without a
     budget), its cost following ``law`` (features, levels)."""
     rows = [row(kg, "SIFT", {}, 300.0, f"sift{i}", ate=0.02) for i in range(3)]
