@@ -101,9 +101,13 @@ class RuleTable:
 
 
 def _evidence(kg: KnowledgeGraph) -> dict[tuple[str, str, str], tuple[float | None, int, float | None]]:
-    """(extractor, dimension, value) → (mean ATE, windows, mean extraction ms) over all measurements."""
+    """(extractor, dimension, value) → (mean ATE, windows, mean extraction ms) over all measurements.
+
+    Means over the measurements that have the value (a failed window has no ATE): AVG over an OPTIONAL
+    would be unbound as soon as one measurement lacks it."""
     rows = kg.select(
-        """SELECT ?xname ?dim ?val (AVG(?ate) AS ?mean) (COUNT(?m) AS ?n) (AVG(?ms) AS ?cost) WHERE {
+        """SELECT ?xname ?dim ?val (SUM(COALESCE(?ate, 0)) / COUNT(?ate) AS ?mean) (COUNT(?m) AS ?n)
+                  (SUM(COALESCE(?ms, 0)) / COUNT(?ms) AS ?cost) WHERE {
             ?m a nfex:Measurement ; sosa:usedProcedure/nfex:ofExtractor/nfex:token ?xname ;
                nfex:underCondition ?c .
             ?c nfex:token ?val ; nfex:inDimension/nfex:token ?dim .
