@@ -25,8 +25,7 @@ import numpy as np
 
 from ..errors import BadInput, NoCandidate
 from ..fitness import Adjustment, adjust_params, f_metrics
-from ..kg.vocab import Vocabulary
-from ..kg.vocab import Value
+from ..kg.vocab import Value, Vocabulary
 from ..rules.engine import Decision, RuleEngine, RuleTable
 from .budget import Budget, BudgetOutcome, apply_budget, cheapest, resolve_budget
 from .selection import CandidateScore, ContextEntry, PrunedCandidate, Selection
@@ -219,7 +218,7 @@ class Advisor:
                 outcome.warnings.append(f"{x}: {outcome.readmitted[x]}")
                 continue
             for d in (outcome.params, outcome.estimates, outcome.adjustments, outcome.pruned):
-                d.pop(x, None)  # type: ignore[attr-defined]
+                d.pop(x, None)
             theta.pop(x)
         if not outcome.params:
             x, params, adj, e = cheapest(table.cost, terms, snap.vocab.extractors, pool, budget)
