@@ -54,9 +54,13 @@ def best_params(
     settings = kg.select(
         f"SELECT ?name ?v WHERE {{ <{cfg}> nfex:hasSetting ?s . ?s nfex:parameter/nfex:opencvName ?name ; nfex:value ?v }}"
     ).rows
-    params = {str(r["name"]): r["v"].toPython() for r in settings}  # type: ignore[union-attr]
-    n = int(rows[0]["n"].toPython())  # type: ignore[union-attr]
-    return params, f"sweep: {cfg} mean ATE {float(rows[0]['mean'].toPython()):.3f} m over {n} windows"  # type: ignore[union-attr]
+    params = {str(r["name"]): _py(r["v"]) for r in settings}
+    n = int(_py(rows[0]["n"]))
+    return params, f"sweep: {cfg} mean ATE {float(_py(rows[0]['mean'])):.3f} m over {n} windows"
+
+
+def _py(term: Any) -> Any:
+    return term.toPython()
 
 
 @dataclass

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..datasets.base import Sequence
-from ..vo import VOResult, run_vo
+from ..vo import VOParams, VOResult, run_vo
 from .methods import AdvisorChooser, chooser_for
 
 if TYPE_CHECKING:
@@ -78,8 +78,6 @@ def evaluate(
     progress: bool = False,
 ) -> Evaluation:
     """Run every method (and nFEX at each budget) on ``sequence`` and each corruption, ``runs`` times."""
-    import cv2
-
     from ..sweeps.cells import window_errors
     from ..vision.registry import ExtractorRegistry
 
@@ -102,10 +100,10 @@ def evaluate(
             seq = corrupt(sequence, corruption, severity, seed=0)
         context = {k: v for k, v in seq.context.items() if v}
         for r in range(runs):
-            cv2.setRNGSeed(r)  # RANSAC's sampling: each run its own, reproducible draw
             chooser, note = chooser_for(method, kg, context, label, budget)
             t0 = time.perf_counter()
-            res = run_vo(seq, chooser, registry=registry, stop=stop)
+            # each run its own, reproducible RANSAC draw (runs differ as a SLAM system's would)
+            res = run_vo(seq, chooser, registry=registry, stop=stop, params=VOParams(seed=r))
             ate, _ = window_errors(seq, res) if not res.failed else (None, None)
             records.append(RunRecord(
                 method, corruption, r, ate, res.failed or ate is None, res.lost_count, len(res.frames),

@@ -63,7 +63,7 @@ class _CachedSequence(Sequence):
     def __len__(self) -> int:
         return len(self.inner)
 
-    def __getitem__(self, i):  # type: ignore[no-untyped-def, override]
+    def __getitem__(self, i):
         f = self._frames.get(i)
         if f is None:
             f = self._frames[i] = self.inner[i]

@@ -60,6 +60,8 @@ class VOParams:
     min_scale_points: int = 8
     max_scale_change: float = 2.0  # per step, against a bad triangulation
     max_lost_fraction: float = 0.3
+    seed: int | None = None  # None: deterministic; else the correspondences are shuffled per frame
+    # before RANSAC (OpenCV seeds its RANSAC itself, so this is what makes runs differ)
 
 
 @dataclass(frozen=True)
@@ -170,10 +172,10 @@ def run_vo(
             lost = step is None
             if step is not None:
                 length = scale.step(step, same, prev_frame, frame)
-                velocity = np.eye(4)
-                velocity[:3, :3] = step.R
-                velocity[:3, 3] = length * step.t
-                velocity = np.linalg.inv(velocity)
+                forward = np.eye(4)  # camera k-1 → camera k
+                forward[:3, :3] = step.R
+                forward[:3, 3] = length * step.t
+                velocity = np.asarray(np.linalg.inv(forward), dtype=float)
             else:
                 scale.reset()
             pose = poses[-1] @ velocity
@@ -208,6 +210,9 @@ def _step(a: Features, b: Features, seq: Sequence, K: np.ndarray, p: VOParams) -
     n = len(m.query)
     if n < p.min_matches:
         return None, n, 0, m.elapsed_ms, f"too few matches ({n} < {p.min_matches})"
+    if p.seed is not None:
+        order = np.random.default_rng((p.seed, len(a), len(b), n)).permutation(n)
+        m = type(m)(m.query[order], m.train[order], m.elapsed_ms)
     p1 = undistort(a.xy[m.query], seq.intrinsics)
     p2 = undistort(b.xy[m.train], seq.intrinsics)
     rel = relative_pose(p1, p2, K, threshold_px=p.ransac_threshold_px)

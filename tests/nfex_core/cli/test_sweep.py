@@ -19,7 +19,7 @@ def test_nfex_sweep_tiny_then_resume(cli_env: dict[str, str], data_dir: Path, tm
     assert json.loads(first.stdout)["ran"] == 1 and csv.exists() and (tmp_path / "m.ttl").exists()
     again = run_cli(args, cli_env)
     assert again.returncode == 0 and json.loads(again.stdout)["skipped"] == 1
-    q = run_cli(["sparql", "SELECT ?m WHERE { ?m a nfex:Measurement ; nfex:underCondition nfex:agent_car }",
+    q = run_cli(["sparql", "SELECT ?m WHERE { ?m a nfex:Measurement ; nfex:underCondition nfex:agent_car ; nfex:frameCount 3 }",
                  "--format", "csv"], cli_env)
     assert q.returncode == 0 and q.stdout.count("meas_") == 1
 

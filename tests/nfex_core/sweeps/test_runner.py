@@ -24,10 +24,11 @@ def _measurements(kg: KnowledgeGraph) -> int:
 @pytest.mark.slow
 def test_sweep_writes_rows_and_measurements_and_resumes(kg: KnowledgeGraph, data_dir: Path, tmp_path: Path) -> None:
     csv = tmp_path / "t.csv"
+    seeded = _measurements(kg)  # the seed carries ontology/measurements/
     counts = sweep(_spec(data_dir), kg, csv, run=RunInfo(command="test"), workers=1, batch=3, progress=False)
     assert counts == {"cells": 4, "skipped": 0, "ran": 4, "committed": 4}
     rows = table.read(csv)
-    assert len(rows) == 4 and _measurements(kg) == 4
+    assert len(rows) == 4 and _measurements(kg) == seeded + 4
     assert {r["corruption"] for r in rows} == {"none", "dark"}
     assert all(r["ctx.agent"] == "car" for r in rows)
     assert {r["ctx.light"] for r in rows if r["corruption"] == "dark"} == {"dark"}
@@ -41,7 +42,7 @@ def test_sweep_writes_rows_and_measurements_and_resumes(kg: KnowledgeGraph, data
     assert again["ran"] == 0 and again["skipped"] == 4
     table.write(csv, rows[1:])
     third = sweep(_spec(data_dir), kg, csv, run=RunInfo(command="test"), workers=1, progress=False)
-    assert third["ran"] == 1 and len(table.read(csv)) == 4 and _measurements(kg) == 4
+    assert third["ran"] == 1 and len(table.read(csv)) == 4 and _measurements(kg) == seeded + 4
     out = tmp_path / "m.ttl"
     assert export_measurements(kg, out) > 100
     assert "nfex:Measurement" in out.read_text()
@@ -49,14 +50,16 @@ def test_sweep_writes_rows_and_measurements_and_resumes(kg: KnowledgeGraph, data
 
 @pytest.mark.slow
 def test_local_process_pool(kg: KnowledgeGraph, data_dir: Path, tmp_path: Path) -> None:
+    seeded = _measurements(kg)
     counts = sweep(_spec(data_dir, corruptions=("none",)), kg, tmp_path / "t.csv", run=RunInfo(command="test"),
                    workers=2, progress=False)
-    assert counts["ran"] == 2 and _measurements(kg) == 2
+    assert counts["ran"] == 2 and _measurements(kg) == seeded + 2
 
 
 @pytest.mark.slow
 @pytest.mark.skipif(importlib.util.find_spec("ray") is None, reason="ray is not installed (pip install 'nfex[ray]')")
 def test_ray_executor_on_a_local_two_cpu_instance(kg: KnowledgeGraph, data_dir: Path, tmp_path: Path) -> None:
+    seeded = _measurements(kg)
     counts = sweep(_spec(data_dir, corruptions=("none",)), kg, tmp_path / "t.csv", run=RunInfo(command="test"),
                    executor="ray", workers=2, progress=False)
-    assert counts["ran"] == 2 and _measurements(kg) == 2
+    assert counts["ran"] == 2 and _measurements(kg) == seeded + 2

@@ -94,3 +94,12 @@ def test_measure_hook_gets_the_previous_frame(kitti00: Sequence, registry: Extra
     res = run_vo(kitti00, fixed("ORB"), registry=registry, measure=measure, stop=3)
     assert seen == [False, True, True]
     assert res.metric_means()["keypoints_seen"] == pytest.approx(res.mean("keypoints"))
+
+
+def test_a_seed_varies_ransac_reproducibly(kitti01: Sequence, registry: ExtractorRegistry) -> None:
+    def run(seed: int | None) -> np.ndarray:
+        return run_vo(kitti01, fixed("ORB"), registry=registry, params=VOParams(seed=seed), stop=5).poses
+
+    assert np.array_equal(run(None), run(None))
+    assert np.array_equal(run(1), run(1))
+    assert not np.array_equal(run(1), run(2))
