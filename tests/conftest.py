@@ -1,6 +1,7 @@
 """Fixtures shared by the whole suite: seeded stores, a real Oxigraph server, free ports, the data folder."""
 from __future__ import annotations
 
+import dataclasses
 import os
 import shutil
 import socket
@@ -60,6 +61,30 @@ def store_path(seeded_template: Path, tmp_path: Path) -> Path:
 @pytest.fixture
 def kg(store_path: Path) -> Iterator[KnowledgeGraph]:
     graph = KnowledgeGraph.open(str(store_path), seed=False)
+    yield graph
+    graph.close()
+
+
+@pytest.fixture(scope="session")
+def bare_template(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Settings]:
+    """A store seeded from ontology/ and rules/ without the shipped sweeps (ontology/measurements/)."""
+    home = tmp_path_factory.mktemp("bare-home")
+    shutil.copytree(REPO / "ontology", home / "ontology", ignore=shutil.ignore_patterns("measurements"))
+    shutil.copytree(REPO / "rules", home / "rules")
+    settings = dataclasses.replace(Settings.from_env(), home=home)
+    path = tmp_path_factory.mktemp("bare") / "store"
+    graph = KnowledgeGraph.open(str(path), settings=settings)
+    graph.backend.flush()  # type: ignore[attr-defined]
+    graph.close()
+    return path, settings
+
+
+@pytest.fixture
+def bare_kg(bare_template: tuple[Path, Settings], tmp_path: Path) -> Iterator[KnowledgeGraph]:
+    """A fresh copy of the store without shipped measurements: tests that add their own measurements."""
+    dest = tmp_path / "bare-store"
+    shutil.copytree(bare_template[0], dest, ignore=shutil.ignore_patterns("LOCK"))
+    graph = KnowledgeGraph.open(str(dest), settings=bare_template[1], seed=False)
     yield graph
     graph.close()
 

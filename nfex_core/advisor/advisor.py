@@ -4,6 +4,7 @@
                     ─► symbolic: candidates C(E) with the rules that pruned the others (rules.engine)
                     ─► params: Θ′ per candidate = g(Θ, E) or ParamNet(E, s), clamped to the graph's ranges,
                                repaired or pruned by the context shapes in force (rules.shape_check)
+                    ─► budget: expected cost per candidate at the frame's size; fit Θ′ or prune (budget)
                     ─► selection: α* = argmax over C(E) of F_metrics on the frame (fitness, vision),
                                   or of SelectorNet's probabilities masked to C(E) (neural.serve)
                     ─► Selection {α*, Θ′, scores, pruned + reasons, context used, versions, timings}
@@ -25,12 +26,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import NoCandidate
-from ..fitness import adjust_params, f_metrics
+from ..errors import BadInput, NoCandidate
+from ..fitness import Adjustment, adjust_params, f_metrics
 from ..kg.vocab import ExtractorSpec, Value, Vocabulary
 from ..neural.serve import ModelHolder, NeuralStep, frame_stats
 from ..rules.engine import Citation, Decision, RuleEngine, RuleTable
 from ..rules.shape_check import enforce
+from .budget import Budget, BudgetOutcome, apply_budget, cheapest, resolve_budget
 from .selection import CandidateScore, ContextEntry, PrunedCandidate, Selection
 
 if TYPE_CHECKING:
@@ -46,7 +48,9 @@ class Snapshot:
     taken_at: float = field(default_factory=time.monotonic)
     _registry: Any = None
     # context-only answers depend on the decision alone: computed once per context and snapshot
-    _priors: dict[int, tuple[list[CandidateScore], dict[str, tuple[Citation, ...]]]] = field(default_factory=dict)
+    _priors: dict[tuple[Any, ...], tuple[list[CandidateScore], BudgetOutcome | None, dict[str, tuple[Citation, ...]]]] = field(
+        default_factory=dict
+    )
 
     @property
     def registry(self) -> Any:
@@ -131,10 +135,17 @@ class Advisor:
     # ------------------------------------------------------------------ the flow
     def select(
         self,
-        context: Mapping[str, str | None] | None = None,
+        context: Mapping[str, Any] | None = None,
         frame: np.ndarray | None = None,
         previous: FrameState | None = None,
+        *,
+        budget_ms: float | None = None,
+        compute: str | None = None,
+        frame_size: tuple[int, int] | None = None,
     ) -> Selection:
+        """The flow for one request. ``budget_ms`` (per-frame extraction time the client can afford) and
+        ``compute`` (a compute class of the graph) may also come as context keys of those names;
+        ``frame_size`` (W, H) sizes the cost check when no frame is sent."""
         timings: dict[str, float] = {}
         t = time.perf_counter()
 
@@ -145,7 +156,11 @@ class Advisor:
             t = now
 
         snap = self.snapshot()
-        given = snap.vocab.check_context(context or {})
+        ctx = dict(context or {})
+        budget_ms = _budget_number(ctx.pop("budget_ms", None) if budget_ms is None else budget_ms)
+        compute = compute or ctx.pop("compute", None)
+        ctx.pop("compute", None)
+        given = snap.vocab.check_context(ctx)
         image = None
         if frame is not None:
             from ..vision.registry import as_grey_u8  # imports cv2: only when a frame comes
@@ -161,28 +176,36 @@ class Advisor:
                 + "; ".join(f"{x}: {cs[0].reason} [{cs[0].label}]" for x, cs in decision.pruned.items()),
                 pruned=[PrunedCandidate(x, cs).as_dict() for x, cs in decision.pruned.items()],
             )
+        size = (int(image.shape[1]), int(image.shape[0])) if image is not None else frame_size
+        budget = resolve_budget(snap.table.budget_terms, snap.table.cost, values, budget_ms, compute, size,
+                                "frame" if image is not None else "given")
         lap("symbolic")
         nn = self.neural.step(snap.vocab)
         if nn.active:
             nn.prepare(values, frame_stats(image))
             lap("neural")
-        scored, state, mode, cut = self._score(snap, decision, image, previous, nn)
+        scored, state, mode, outcome, cut = self._score(snap, decision, budget, nn, image, previous)
         if nn.selectornet and scored:
             probs = nn.probabilities(image, {c.extractor: c.metrics for c in scored}, tuple(c.extractor for c in scored))
             if probs:  # else no candidate is one the network was trained on: F_metrics decides
                 scored = [replace(c, score=probs.get(c.extractor, 0.0), evidence={**c.evidence, "f": c.score}) for c in scored]
                 mode = "selectornet"
         lap("selection")
-        pruned = {**decision.pruned, **cut}
+        pruned = {x: tuple(cs) for x, cs in decision.pruned.items()}
+        pruned.update(cut)
         if not scored:
             raise NoCandidate(
                 "every extractor is pruned in this context: "
                 + "; ".join(f"{x}: {cs[0].reason} [{cs[0].label}]" for x, cs in pruned.items()),
                 pruned=[PrunedCandidate(x, cs).as_dict() for x, cs in pruned.items()],
             )
-        best = max(scored, key=lambda c: (c.score if c.score is not None else -np.inf, -_cost(decision, c.extractor)))
+        best = max(scored, key=lambda c: (c.score if c.score is not None else -np.inf, -_cost(decision, c)))
         spec = snap.vocab.extractor(best.extractor)
         timings["total"] = sum(timings.values())
+        if outcome is not None:
+            for x in outcome.readmitted:
+                pruned.pop(x, None)
+            pruned.update({x: cs for x, cs in outcome.pruned.items() if x != best.extractor})
         return Selection(
             extractor=best.extractor,
             params=dict(best.params),
@@ -196,7 +219,80 @@ class Advisor:
             constructor=spec.constructor,
             norm=spec.norm_for(best.params),
             state=state,
+            budget=budget.as_dict() if budget is not None else None,
+            warnings=tuple(outcome.warnings) if outcome is not None else (),
         )
+
+    def _candidate(
+        self, spec: ExtractorSpec, decision: Decision, nn: NeuralStep, pixels: int | None
+    ) -> tuple[dict[str, Value], list[Adjustment], tuple[Citation, ...]]:
+        """Θ′ = ParamNet(E, s) where the neural step covers α, else g(Θ, E); then the context shapes:
+        the repaired Θ′, every adjustment, or (non-empty) the shapes that prune α."""
+        if nn.covers(spec.name):
+            params, adjustments = nn.params(spec, pixels)
+        else:
+            params, adjustments = adjust_params(spec, decision.factors.get(spec.name, {}), pixels=pixels)
+        outcome = enforce(spec, params, decision.shapes)
+        return outcome.params, [*adjustments, *outcome.adjustments], outcome.pruned
+
+    def _theta(
+        self, snap: Snapshot, decision: Decision, budget: Budget | None, nn: NeuralStep, pixels: int | None
+    ) -> tuple[dict[str, dict[str, Value]], dict[str, list[Adjustment]], BudgetOutcome | None, dict[str, tuple[Citation, ...]]]:
+        """Θ′ per candidate (``_candidate``), then the budget's cost check (fit or prune) when one is in force.
+        Returns Θ′ and adjustments per kept candidate, the budget outcome and what the shapes pruned."""
+        theta: dict[str, dict[str, Value]] = {}
+        adjustments: dict[str, list[Adjustment]] = {}
+        cut: dict[str, tuple[Citation, ...]] = {}
+
+        def admit(x: str) -> bool:
+            params, adj, because = self._candidate(snap.vocab.extractor(x), decision, nn, pixels)
+            if because:
+                cut[x] = because
+                return False
+            theta[x], adjustments[x] = params, adj
+            return True
+
+        for x in decision.candidates:
+            admit(x)
+        if budget is None:
+            return theta, adjustments, None, cut
+        table = snap.table
+        terms = table.budget_terms
+        # what a relative-accuracy rule pruned is re-judged against the best *affordable* extractor
+        relative = [x for x, cs in decision.pruned.items() if cs and all(c.rule in terms.relative_rules for c in cs)]
+        relative = [x for x in relative if admit(x)]
+        outcome = apply_budget(table.cost, terms, snap.vocab.extractors, theta, budget)
+        pool = dict(theta)  # the fallback may also take what was pruned relative to an unaffordable best
+        ates = {x: e.mean_ate for x, e in decision.evidence.items() if e.mean_ate}
+        best = min((ates[x] for x in outcome.params if x in ates), default=None)
+        for x in relative:
+            ok = x in outcome.params and x in ates and best is not None and terms.max_relative_ate is not None
+            if ok and ates[x] <= terms.max_relative_ate * best and best > min(ates.values()):  # type: ignore[operator]
+                outcome.readmitted[x] = (
+                    f"re-admitted: mean ATE {ates[x]:.3g} m is within {terms.max_relative_ate:g}x the best affordable "
+                    f"extractor's {best:.3g} m; the more accurate ones are over the budget"
+                )
+                outcome.warnings.append(f"{x}: {outcome.readmitted[x]}")
+                continue
+            for d in (outcome.params, outcome.estimates, outcome.adjustments, outcome.pruned):
+                d.pop(x, None)
+            theta.pop(x)
+        if not outcome.params and pool:
+            x, params, adj, e = cheapest(table.cost, terms, snap.vocab.extractors, pool, budget)
+            if x in relative:
+                outcome.readmitted[x] = "re-admitted as the cheapest extractor: nothing fits the budget"
+            theta[x] = pool[x]
+            outcome.pruned.pop(x, None)
+            outcome.params[x] = params
+            outcome.adjustments[x] = adj
+            outcome.estimates[x] = e
+            outcome.warnings.append(
+                f"every candidate's expected extraction time exceeds the budget {budget.ms:g} ms; running the cheapest, "
+                f"{x} at {e.describe()}"
+            )
+        for x, adj in outcome.adjustments.items():
+            adjustments[x] = [*adjustments[x], *adj]
+        return {x: outcome.params[x] for x in theta if x in outcome.params}, adjustments, outcome, cut
 
     def _conditions(
         self, vocab: Vocabulary, given: dict[str, str], image: np.ndarray | None, previous: FrameState | None
@@ -223,52 +319,36 @@ class Advisor:
             values[dim] = entry.value
         return entries, values
 
-    def _theta(
-        self, spec: Any, decision: Decision, nn: NeuralStep, pixels: int | None = None
-    ) -> tuple[dict[str, Any], list[Any]]:
-        """Θ′ = ParamNet(E, s) when the neural step has it, else g(Θ, E); clamped to the graph either way."""
-        if nn.covers(spec.name):
-            return nn.params(spec, pixels)
-        return adjust_params(spec, decision.factors.get(spec.name, {}), pixels=pixels)
-
-    def _candidate(
-        self, spec: ExtractorSpec, decision: Decision, nn: NeuralStep, pixels: int | None
-    ) -> tuple[dict[str, Value], list[Any], tuple[Citation, ...]]:
-        """Θ′ checked against the context shapes: repaired Θ′, every adjustment, or why α is pruned."""
-        params, adjustments = self._theta(spec, decision, nn, pixels)
-        outcome = enforce(spec, params, decision.shapes)
-        return outcome.params, [*adjustments, *outcome.adjustments], outcome.pruned
-
     def _score(
-        self, snap: Snapshot, decision: Decision, image: np.ndarray | None, previous: FrameState | None, nn: NeuralStep
-    ) -> tuple[list[CandidateScore], FrameState | None, str, dict[str, tuple[Citation, ...]]]:
+        self,
+        snap: Snapshot,
+        decision: Decision,
+        budget: Budget | None,
+        nn: NeuralStep,
+        image: np.ndarray | None,
+        previous: FrameState | None,
+    ) -> tuple[list[CandidateScore], FrameState | None, str, BudgetOutcome | None, dict[str, tuple[Citation, ...]]]:
         vocab = snap.vocab
-        cut: dict[str, tuple[Citation, ...]] = {}
         if image is None:
-            cached = snap._priors.get(id(decision))
+            # the prior depends on the decision, the budget and (through ParamNet) the model in use
+            key = (id(decision), None if budget is None else tuple(budget.as_dict().values()), nn.info.get("used"))
+            cached = snap._priors.get(key)
             if cached is None:
-                prior: list[CandidateScore] = []
-                for x in decision.candidates:
-                    got = self._prior(snap, decision, x, nn)
-                    if isinstance(got, CandidateScore):
-                        prior.append(got)
-                    else:
-                        cut[x] = got
-                cached = snap._priors[id(decision)] = (prior, cut)
-            return list(cached[0]), None, "prior", dict(cached[1])  # shared, frozen CandidateScores: read-only
+                theta, adjustments, outcome, cut = self._theta(snap, decision, budget, nn, None)
+                priors = [self._prior(snap, decision, x, theta[x], adjustments[x], outcome) for x in theta]
+                cached = snap._priors[key] = (priors, outcome, cut)
+            return list(cached[0]), None, "prior", cached[1], dict(cached[2])  # shared, frozen: read-only
         small = downscale(image, self.score_max_side)
         from ..vision.metrics import compute_metrics
 
+        full_px = int(image.shape[0] * image.shape[1])
+        theta, adjustments, outcome, cut = self._theta(snap, decision, budget, nn, full_px)
         out: list[CandidateScore] = []
         features: dict[str, Any] = {}
-        for x in decision.candidates:
+        for x, params in theta.items():
             spec = vocab.extractor(x)
-            params, adjustments, because = self._candidate(spec, decision, nn, int(image.shape[0] * image.shape[1]))
-            if because:
-                cut[x] = because
-                continue
-            # F_metrics is measured on the scoring image, with count parameters scaled to its size
-            score_params, _, _ = self._candidate(spec, decision, nn, int(small.shape[0] * small.shape[1]))
+            # F_metrics is measured on the scoring image with this Θ′, count parameters scaled to its size
+            score_params = _scaled(spec, params, int(small.shape[0] * small.shape[1]) / full_px)
             feats = snap.registry.extract(x, small, score_params)
             features[x] = feats
             prev = None
@@ -283,20 +363,24 @@ class Advisor:
                     score=f_metrics(metrics, decision.weights, vocab.metrics, bonus),
                     bonus=bonus,
                     metrics={k: round(v, 6) for k, v in metrics.items()},
-                    adjustments=tuple(adjustments),
+                    adjustments=tuple(adjustments[x]),
                     keypoints=len(feats.xy),
                     extraction_ms=round(feats.elapsed_ms, 3),
-                    evidence=_evidence_dict(decision, x),
+                    evidence=_evidence_dict(decision, x, outcome),
                 )
             )
-        return out, FrameState(small, features), "metrics", cut
+        return out, FrameState(small, features), "metrics", outcome, cut
 
-    def _prior(self, snap: Snapshot, decision: Decision, x: str, nn: NeuralStep) -> CandidateScore | tuple[Citation, ...]:
+    def _prior(
+        self,
+        snap: Snapshot,
+        decision: Decision,
+        x: str,
+        params: dict[str, Value],
+        adjustments: list[Adjustment],
+        outcome: BudgetOutcome | None,
+    ) -> CandidateScore:
         """Without a frame: the preference bonus plus measured accuracy (best mean ATE / this one's)."""
-        spec = snap.vocab.extractor(x)
-        params, adjustments, because = self._candidate(spec, decision, nn, None)
-        if because:
-            return because
         bonus = decision.bonuses[x].value if x in decision.bonuses else 0.0
         measured = [e.mean_ate for e in decision.evidence.values() if e.mean_ate]
         own = decision.evidence.get(x)
@@ -307,17 +391,49 @@ class Advisor:
             score=bonus + accuracy,
             bonus=bonus,
             adjustments=tuple(adjustments),
-            evidence=_evidence_dict(decision, x),
+            evidence=_evidence_dict(decision, x, outcome),
         )
 
 
-def _evidence_dict(decision: Decision, x: str) -> dict[str, Any]:
-    e = decision.evidence.get(x)
-    if e is None:
-        return {}
-    return {"mean_ate_m": e.mean_ate, "windows": e.windows, "extraction_ms": e.extraction_ms}
+def _scaled(spec: ExtractorSpec, params: Mapping[str, Value], ratio: float) -> dict[str, Value]:
+    """Θ′ for an image ``ratio`` times as many pixels: count parameters scaled, everything else as is."""
+    if ratio >= 1.0:
+        return dict(params)
+    out = dict(params)
+    for name, value in params.items():
+        p = spec.parameters[name]
+        if p.scales_with_resolution and not isinstance(value, bool) and float(value) > 0:
+            out[name] = p.clamp(float(value) * ratio)
+    return out
 
 
-def _cost(decision: Decision, x: str) -> float:
+def _budget_number(value: Any) -> float | None:
+    if value is None:
+        return None
+    try:
+        ms = float(value)
+    except (TypeError, ValueError):
+        raise BadInput(f"budget_ms must be a number of milliseconds, got {value!r}") from None
+    if not ms > 0 or ms == float("inf"):
+        raise BadInput(f"budget_ms must be a positive number of milliseconds, got {value!r}")
+    return ms
+
+
+def _evidence_dict(decision: Decision, x: str, outcome: BudgetOutcome | None = None) -> dict[str, Any]:
     e = decision.evidence.get(x)
+    out: dict[str, Any] = {}
+    if e is not None:
+        out = {"mean_ate_m": e.mean_ate, "windows": e.windows, "extraction_ms": e.extraction_ms}
+    if outcome is not None and x in outcome.estimates:
+        est = outcome.estimates[x]
+        out["expected_ms"] = round(est.ms, 3) if est.ms is not None else None
+        out["cost_source"] = est.source
+    return out
+
+
+def _cost(decision: Decision, c: CandidateScore) -> float:
+    """Tie-break: the budget's expected time where known, else the measured mean extraction time."""
+    if c.evidence.get("expected_ms") is not None:
+        return float(c.evidence["expected_ms"])
+    e = decision.evidence.get(c.extractor)
     return e.extraction_ms if e is not None and e.extraction_ms is not None else float("inf")

@@ -83,6 +83,8 @@ class Selection:
     constructor: str = ""
     norm: str = ""
     state: Any = field(default=None, compare=False, repr=False)  # for the next frame of a stream
+    budget: dict[str, Any] | None = None  # the per-frame budget in force (ms, source, compute, frame size)
+    warnings: tuple[str, ...] = ()
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -96,6 +98,8 @@ class Selection:
             "weights": {
                 m: {"value": f.value, "because": [c.as_dict() for c in f.citations]} for m, f in self.weights.items()
             },
+            "budget": self.budget,
+            "warnings": list(self.warnings),
             "versions": self.versions,
             "timings_ms": {k: round(v, 3) for k, v in self.timings_ms.items()},
         }

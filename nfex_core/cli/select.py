@@ -64,6 +64,14 @@ def render(sel: Any) -> str:
             for c in p.because:
                 src = f" [{c.source}]" if c.source else ""
                 lines.append(f"  {p.extractor}: {c.reason} — rule {c.rule} \"{c.label}\"{src}")
+    budget = getattr(sel, "budget", None)
+    if budget:
+        lines += ["", f"budget: {budget['ms']:g} ms per frame ({budget['source']}; compute {budget['compute']} ×{budget['factor']:g}; "
+                      f"{budget['width']}×{budget['height']}, {budget['size_source']})"]
+        lines += [f"  expected {c.extractor}: {c.evidence['expected_ms']} ms ({c.evidence.get('cost_source')})"
+                  for c in sel.candidates if c.evidence.get("expected_ms") is not None]
+    for w in getattr(sel, "warnings", ()):
+        lines.append(f"warning: {w}")
     return "\n".join(lines)
 
 

@@ -1,7 +1,8 @@
 """The methods of the paper's Table I as VO choosers (§V-B): ORB and SIFT with OpenCV's default
 parameters, ORB and SIFT with "dynamically optimised" parameters, and nFEX.
 
-- ``orb-default`` / ``sift-default``: the graph's defaults (OpenCV's).
+- ``orb-default`` / ``sift-default``: the graph's defaults (OpenCV's); ``orb_grid-default``: the
+  grid-spread ORB registry entry (issue 8) with its defaults.
 - ``orb-dyn`` / ``sift-dyn``: per window, the parameters that a sweep on *other* sequences measured
   best for that extractor under the window's known conditions — the configuration with the lowest
   mean ATE over Measurements that share a condition value with the window's context, excluding every
@@ -24,7 +25,7 @@ from ..vo import Choice, Chooser, FrameRecord, fixed
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
 
-METHODS = ("orb-default", "sift-default", "orb-dyn", "sift-dyn", "nfex")
+METHODS = ("orb-default", "sift-default", "orb-dyn", "sift-dyn", "nfex", "orb_grid-default")
 
 
 def best_params(
@@ -93,7 +94,7 @@ def chooser_for(
     method: str, kg: KnowledgeGraph, context: Mapping[str, str], sequence_label: str, budget_ms: float | None = None
 ) -> tuple[Chooser, str]:
     """The chooser of ``method`` and a note saying which parameters it runs with."""
-    if method in ("orb-default", "sift-default"):
+    if method in ("orb-default", "sift-default", "orb_grid-default"):
         return fixed(method.split("-")[0].upper()), "OpenCV defaults"
     if method in ("orb-dyn", "sift-dyn"):
         x = method.split("-")[0].upper()

@@ -11,7 +11,7 @@ import numpy as np
 from .run import Evaluation
 
 NAMES = {"orb-default": "ORB (default)", "sift-default": "SIFT (default)", "orb-dyn": "ORB (dynamic)",
-         "sift-dyn": "SIFT (dynamic)", "nfex": "nFEX"}
+         "sift-dyn": "SIFT (dynamic)", "nfex": "nFEX", "orb_grid-default": "ORB grid (default)"}
 
 
 def _ate_text(ev: Evaluation, recs: list[Any]) -> str:

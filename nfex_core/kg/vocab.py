@@ -35,6 +35,7 @@ class ParameterSpec:
     allowed: tuple[Value, ...] | None = None
     tunable: bool = False
     scales_with_resolution: bool = False
+    grid_role: str | None = None  # "cellSize" | "oversample": applied by the registry, not passed to OpenCV
     label: str = ""
     comment: str = ""
 
@@ -223,12 +224,13 @@ class Vocabulary:
         version = kg.version
         params: dict[str, dict[str, ParameterSpec]] = {}
         prow = kg.select(
-            """SELECT ?p ?x ?xname ?name ?dt ?role ?default ?min ?max ?tunable ?scales ?label ?comment WHERE {
+            """SELECT ?p ?x ?xname ?name ?dt ?role ?default ?min ?max ?tunable ?scales ?grid ?label ?comment WHERE {
                 ?p a nfex:Parameter ; nfex:parameterOf ?x ; nfex:opencvName ?name ; nfex:datatype ?dt ;
                    nfex:role/nfex:token ?role ; nfex:defaultValue ?default .
                 ?x nfex:token ?xname .
                 OPTIONAL { ?p nfex:minValue ?min } OPTIONAL { ?p nfex:maxValue ?max }
                 OPTIONAL { ?p nfex:tunable ?tunable } OPTIONAL { ?p nfex:scalesWithResolution ?scales }
+                OPTIONAL { ?p nfex:gridRole/nfex:token ?grid }
                 OPTIONAL { ?p rdfs:label ?label } OPTIONAL { ?p rdfs:comment ?comment }
             }"""
         ).rows
@@ -249,6 +251,7 @@ class Vocabulary:
                 allowed=tuple(sorted(_typed_value(a, dt) for a in allowed[r["p"]])) if r["p"] in allowed else None,  # type: ignore[index]
                 tunable=bool(_py(r["tunable"])) if "tunable" in r else False,
                 scales_with_resolution=bool(_py(r["scales"])) if "scales" in r else False,
+                grid_role=str(r["grid"]) if "grid" in r else None,
                 label=str(r.get("label", "")),
                 comment=str(r.get("comment", "")),
             )

@@ -6,6 +6,8 @@ every DSL statement and context shape (shapes.py) for all contexts, and stores a
 extractors with the rules that pruned them, the parameter factors f_kj, the metric weights h_x, the
 preference bonuses, the ``require`` constraints and context shapes in force, and the measured evidence per extractor. A
 request then pays one dictionary lookup. ``compile_table`` runs again when the graph version changes.
+The same step fits the cost model (nfex_core/cost.py) and reads the budget terms, so a request's
+budget check (advisor/budget.py) costs arithmetic only.
 
 Composition (paper §IV-A): several ``adjust`` statements on one parameter multiply
 (w_k = Π_j f_kj(e_j)); several ``weight`` statements on one metric multiply (h_x(E), default 1);
@@ -22,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 from rdflib.term import URIRef
 
+from ..cost import BudgetTerms, CostModel, fit_cost_model
 from . import pruning
 from .statements import Statement, load_statements
 
@@ -88,6 +91,8 @@ class RuleTable:
     statements: list[Statement]
     errors: list[str]
     compile_ms: float
+    cost: CostModel = field(default_factory=CostModel)
+    budget_terms: BudgetTerms = field(default_factory=BudgetTerms)
 
     def key(self, context: Mapping[str, str | None]) -> ContextKey:
         return tuple(context.get(d) for d in self.dimensions)
@@ -98,9 +103,13 @@ class RuleTable:
 
 
 def _evidence(kg: KnowledgeGraph) -> dict[tuple[str, str, str], tuple[float | None, int, float | None]]:
-    """(extractor, dimension, value) → (mean ATE, windows, mean extraction ms) over all measurements."""
+    """(extractor, dimension, value) → (mean ATE, windows, mean extraction ms) over all measurements.
+
+    Means over the measurements that have the value (a failed window has no ATE): AVG over an OPTIONAL
+    would be unbound as soon as one measurement lacks it."""
     rows = kg.select(
-        """SELECT ?xname ?dim ?val (AVG(?ate) AS ?mean) (COUNT(?m) AS ?n) (AVG(?ms) AS ?cost) WHERE {
+        """SELECT ?xname ?dim ?val (SUM(COALESCE(?ate, 0)) / COUNT(?ate) AS ?mean) (COUNT(?m) AS ?n)
+                  (SUM(COALESCE(?ms, 0)) / COUNT(?ms) AS ?cost) WHERE {
             ?m a nfex:Measurement ; sosa:usedProcedure/nfex:ofExtractor/nfex:token ?xname ;
                nfex:underCondition ?c .
             ?c nfex:token ?val ; nfex:inDimension/nfex:token ?dim .
@@ -204,9 +213,11 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
             evidence={x: e for x, e in ev.items() if e.windows},
             shapes=in_force,
         )
+    cost = fit_cost_model(kg, vocab.extractors)
+    budget_terms = BudgetTerms.load(kg)
     ms = (time.perf_counter() - t0) * 1000
     log.info("compiled %d contexts, %d rules, %d statements at graph version %d in %.0f ms", len(keys), len(rules), len(statements), version, ms)
-    return RuleTable(version, dims, decisions, rules, statements, errors, ms)
+    return RuleTable(version, dims, decisions, rules, statements, errors, ms, cost, budget_terms)
 
 
 class RuleEngine:

@@ -9,6 +9,11 @@ extractor is a Turtle file, not code.
     >>> reg = ExtractorRegistry.from_vocabulary(kg.vocabulary())       # doctest: +SKIP
     >>> feats = reg.extract("ORB", image, {"nfeatures": 1000})          # doctest: +SKIP
 
+A parameter with an ``nfex:gridRole`` (ontology/grid.ttl) is not a constructor argument: when an
+extractor declares a grid cell size, the registry detects ``oversample`` × NF keypoints and keeps NF
+of them spread over square cells (``spread_over_grid``), then computes descriptors for those only —
+ORB-SLAM's idea, available to any extractor as data (ORB_GRID).
+
 Parameter sets are validated against the graph (an out-of-range or unknown parameter raises
 ParameterError / UnknownName naming it and its allowed range). OpenCV detector objects are cached per
 thread and per parameter set: they are cheap to build but not safe to share between threads.
@@ -83,9 +88,22 @@ class ExtractorRegistry:
         """The full parameter set: the graph's defaults overridden by ``params``, each validated."""
         return self.spec(name).resolve(params)
 
+    def constructor_args(self, name: str, params: Mapping[str, Any] | None = None) -> dict[str, Value]:
+        """The validated parameters the OpenCV constructor takes: grid settings and oversampling applied."""
+        spec = self.spec(name)
+        full = self.resolve(name, params)
+        args = {k: v for k, v in full.items() if spec.parameters[k].grid_role is None}
+        grid = _grid_settings(spec, full)
+        if grid is not None:
+            nf = _nf_name(spec)
+            if nf is not None and int(args[nf]) > 0:
+                p = spec.parameters[nf]
+                args[nf] = p.clamp(float(args[nf]) * grid[1])
+        return args
+
     def create(self, name: str, params: Mapping[str, Any] | None = None) -> Any:
         """A (thread-local, cached) OpenCV detector for ``name`` with ``params``."""
-        full = self.resolve(name, params)
+        full = self.constructor_args(name, params)
         key = (name, tuple(sorted(full.items())))
         cache: OrderedDict[tuple[Any, ...], Any] | None = getattr(self._local, "cache", None)
         if cache is None:
@@ -113,8 +131,16 @@ class ExtractorRegistry:
         detector = self.create(name, params)
         norm, norm_name = self.norm(name, params)
         grey = as_grey_u8(image)
+        full = self.resolve(name, params)
+        grid = _grid_settings(spec, full)
         t0 = time.perf_counter()
-        keypoints, descriptors = detector.detectAndCompute(grey, mask)
+        if grid is None:
+            keypoints, descriptors = detector.detectAndCompute(grey, mask)
+        else:
+            nf = _nf_name(spec)
+            keep = int(full[nf]) if nf is not None else 0
+            keypoints = spread_over_grid(detector.detect(grey, mask), grid[0], keep)
+            keypoints, descriptors = detector.compute(grey, keypoints)
         elapsed = (time.perf_counter() - t0) * 1000
         try:
             width = int(detector.descriptorSize())
@@ -131,3 +157,43 @@ class ExtractorRegistry:
             image_shape=(int(grey.shape[0]), int(grey.shape[1])),
             elapsed_ms=elapsed,
         )
+
+
+def _nf_name(spec: ExtractorSpec) -> str | None:
+    """The extractor's number-of-features parameter (role NF), if it has one."""
+    return next((n for n, p in spec.parameters.items() if p.role == "NF" and p.grid_role is None), None)
+
+
+def _grid_settings(spec: ExtractorSpec, full: Mapping[str, Value]) -> tuple[int, float] | None:
+    """(cell size in px, oversampling factor) when the extractor declares a grid cell size, else None."""
+    roles = {p.grid_role: n for n, p in spec.parameters.items() if p.grid_role is not None}
+    if "cellSize" not in roles:
+        return None
+    over = float(full[roles["oversample"]]) if "oversample" in roles else 1.0
+    return int(full[roles["cellSize"]]), over
+
+
+def spread_over_grid(keypoints: Any, cell: int, keep: int) -> list[Any]:
+    """Keep ``keep`` keypoints (all when 0) spread over square cells of ``cell`` px.
+
+    Round-robin by rank: every cell's strongest keypoint (by response) comes before any cell's second,
+    and within one rank the stronger first — so each textured cell gets its share (ORB-SLAM's grid
+    quota) and the strongest cells fill the remainder. Deterministic (stable sorts).
+    """
+    kps = list(keypoints)
+    if not kps:
+        return kps
+    xy = np.array([k.pt for k in kps], dtype=np.float64)
+    response = np.array([k.response for k in kps], dtype=np.float64)
+    cx = np.floor(xy[:, 0] / cell).astype(np.int64)
+    cy = np.floor(xy[:, 1] / cell).astype(np.int64)
+    cell_id = cy * (int(cx.max()) + 1) + cx
+    order = np.lexsort((-response, cell_id))  # by cell, strongest first within a cell
+    sorted_cells = cell_id[order]
+    starts = np.r_[0, np.flatnonzero(np.diff(sorted_cells)) + 1]
+    rank = np.empty(len(kps), dtype=np.int64)
+    rank[order] = np.arange(len(kps)) - np.repeat(starts, np.diff(np.r_[starts, len(kps)]))
+    chosen = np.lexsort((-response, rank))
+    if keep > 0:
+        chosen = chosen[:keep]
+    return [kps[i] for i in chosen]

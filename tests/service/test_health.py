@@ -17,7 +17,7 @@ def test_health_readiness_and_vocabulary(service: Service) -> None:
     assert ready["rule_table"]["contexts"] > 0
     vocab = httpx.get(service.url + "/v1/vocabulary").json()
     assert vocab["context"]["light"]["values"] == ["dark", "bright"]
-    assert {"ORB", "SIFT", "AKAZE", "BRISK"} <= set(vocab["extractors"])
+    assert set(vocab["extractors"]) == {"ORB", "ORB_GRID", "SIFT", "AKAZE", "BRISK"}
 
 
 def test_unknown_route_and_method_are_problem_json(service: Service) -> None:

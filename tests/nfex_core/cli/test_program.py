@@ -36,7 +36,7 @@ def test_check_lists_every_unknown_name_with_the_known_ones(cli_env: dict[str, s
     p = run_cli(["program", "check", str(f)], cli_env)
     assert p.returncode == 2
     out = p.stdout.splitlines()
-    assert out[0] == f"{f}:2:7: unknown extractor 'SURF'; known: AKAZE, BRISK, ORB, SIFT"
+    assert out[0] == f"{f}:2:7: unknown extractor 'SURF'; known: AKAZE, BRISK, ORB, ORB_GRID, SIFT"
     assert out[1] == f"{f}:3:39: unknown value of light 'dim'; known: bright, dark"
     assert p.stderr.startswith("nfex: unknown name: ") and len(p.stderr.strip().splitlines()) == 1
 
@@ -57,7 +57,7 @@ def test_apply_show_list_remove(cli_env: dict[str, str], tmp_path: Path) -> None
         "weight motion 2.0 when motion is fast\n"
     )
     listed = json.loads(run_cli(["program", "list", "--json"], cli_env).stdout)
-    assert {(i["name"], i["statements"]) for i in listed} >= {("site", 2), ("default", 25)}
+    assert {(i["name"], i["statements"]) for i in listed} >= {("site", 2), ("default", 33)}
     assert run_cli(["program", "remove", "site"], cli_env).returncode == 0
     missing = run_cli(["program", "show", "site"], cli_env)
     assert missing.returncode == 4 and "no program named 'site'" in missing.stderr

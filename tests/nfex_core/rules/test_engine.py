@@ -42,7 +42,7 @@ def test_expert_rule_prunes_sift_on_fast_cars_and_is_cited(kg: KnowledgeGraph) -
 def test_every_context_is_compiled(kg: KnowledgeGraph) -> None:
     table = compile_table(kg)
     assert len(table.decisions) == 4 * 3 * 3 * 3 * 3 * 4
-    assert table.decide({}).candidates == ("AKAZE", "BRISK", "ORB", "SIFT")
+    assert table.decide({}).candidates == ("AKAZE", "BRISK", "ORB", "ORB_GRID", "SIFT")
 
 
 def test_measured_tracking_loss_prunes_after_a_commit_and_rollback_restores(kg: KnowledgeGraph) -> None:

@@ -1,0 +1,277 @@
+"""Expected extraction cost of a configuration on a W×H frame, fitted from the graph's Measurements.
+
+Issue 8 (the paper's future work, "Resource Optimization"). Sweeps record per Measurement the mean
+extraction time per frame (``nfex:extractionMs``), the frame size (``nfex:frameWidth/Height``) and,
+in the provenance, the machine. Once per graph version (the rule engine's compile step) this module
+fits, per extractor x, the model
+
+    t_x(Θ, W, H) = P·(a_x + c_x·NL) + b_x·NF/1000,        P = W·H / 10⁶ (megapixels)
+
+by least squares over the extractor's measured (configuration, size) groups, keeping the NF and NL
+terms only where the data varies them, every measured NF is a real cap (not 0 = unlimited) and the
+fitted coefficient is positive. The expected cost of a configuration is then, in this order:
+
+1. ``measured``: the configuration was measured at this frame size — its mean time;
+2. ``model``: the extractor's model, where it has a features or levels term;
+3. ``scaled``: the configuration was measured at other sizes — its mean ms per megapixel × P;
+4. ``fallback``: the extractor's mean ms per megapixel × P (this configuration was never measured),
+   cited as such;
+5. unknown (None) when the extractor was never measured.
+
+Tiers 1, 3 and 4 are SPARQL-answerable as they stand (``expected_cost_query``); tier 2 is the fit.
+Timings compare only on one machine: the model uses every Measurement, whatever machine ran it.
+"""
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from rdflib.term import Literal
+
+from .kg.vocab import ExtractorSpec, Value
+
+if TYPE_CHECKING:
+    from .kg.store import KnowledgeGraph
+
+MEASURED_COSTS = """SELECT ?cfg ?xname ?w ?h (AVG(?ms) AS ?mean) (COUNT(?m) AS ?n) WHERE {
+    ?m a nfex:Measurement ; sosa:usedProcedure ?cfg ; nfex:extractionMs ?ms ; nfex:frameWidth ?w ; nfex:frameHeight ?h .
+    ?cfg nfex:ofExtractor/nfex:token ?xname .
+} GROUP BY ?cfg ?xname ?w ?h"""
+
+MEASURED_SETTINGS = """SELECT ?cfg ?name ?v WHERE {
+    ?cfg a nfex:Configuration ; nfex:hasSetting ?s . ?s nfex:parameter/nfex:opencvName ?name ; nfex:value ?v .
+    FILTER EXISTS { ?m sosa:usedProcedure ?cfg ; nfex:extractionMs ?ms }
+}"""
+
+
+def expected_cost_query(configuration: str, extractor: str, width: int, height: int) -> str:
+    """SPARQL for tiers 1, 3 and 4: the configuration's time at W×H, else its (or its extractor's) ms/MP × W·H.
+
+    Configuration IRIs are content-derived (``sweeps.records.configuration_iri``), so a client can
+    name one that was never measured and get the extractor's fallback.
+    """
+    return f"""PREFIX nfex: <https://w3id.org/nfex#>
+PREFIX sosa: <http://www.w3.org/ns/sosa/>
+SELECT ?expectedMs ?source ?measurements WHERE {{
+  {{ SELECT (AVG(?ms0) AS ?sizeMs) (COUNT(?m0) AS ?sizeN) WHERE {{
+      ?m0 sosa:usedProcedure <{configuration}> ; nfex:extractionMs ?ms0 ; nfex:frameWidth {int(width)} ; nfex:frameHeight {int(height)} . }} }}
+  {{ SELECT (AVG(?ms * 1000000 / (?w * ?h)) AS ?cfgRate) (COUNT(?m) AS ?cfgN) WHERE {{
+      ?m sosa:usedProcedure <{configuration}> ; nfex:extractionMs ?ms ; nfex:frameWidth ?w ; nfex:frameHeight ?h . }} }}
+  {{ SELECT (AVG(?ms2 * 1000000 / (?w2 * ?h2)) AS ?xRate) (COUNT(?m2) AS ?xN) WHERE {{
+      ?m2 sosa:usedProcedure/nfex:ofExtractor/nfex:token "{extractor}" ;
+          nfex:extractionMs ?ms2 ; nfex:frameWidth ?w2 ; nfex:frameHeight ?h2 . }} }}
+  FILTER (?cfgN > 0 || ?xN > 0)
+  BIND (IF(?sizeN > 0, ?sizeMs, IF(?cfgN > 0, ?cfgRate, ?xRate) * {int(width) * int(height)} / 1000000) AS ?expectedMs)
+  BIND (IF(?sizeN > 0, "measured", IF(?cfgN > 0, "scaled", "fallback")) AS ?source)
+  BIND (IF(?sizeN > 0, ?sizeN, IF(?cfgN > 0, ?cfgN, ?xN)) AS ?measurements)
+}}"""
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """An expected extraction time per frame and where it came from."""
+
+    ms: float | None
+    source: str  # "measured" | "model" | "fallback" | "unknown"
+    measurements: int = 0
+
+    def describe(self) -> str:
+        if self.ms is None:
+            return "no extraction time measured for this extractor"
+        how = {
+            "measured": "this configuration's measured time at this frame size",
+            "model": "the extractor's cost model (pixels, features, levels)",
+            "scaled": "this configuration's measured time per megapixel at other frame sizes",
+            "fallback": "the extractor's mean time per megapixel (this configuration was never measured)",
+        }[self.source]
+        return f"{self.ms:.1f} ms from {how}, {self.measurements} measurements"
+
+
+@dataclass(frozen=True)
+class ExtractorCost:
+    """t = P·(a + c·NL) + b·NF/1000 for one extractor; b or c are 0 where the data shows no term."""
+
+    extractor: str
+    per_mp: float  # a
+    per_kfeature: float = 0.0  # b
+    per_mp_level: float = 0.0  # c
+    mean_per_mp: float = 0.0  # the fallback rate: mean ms per megapixel over all measurements
+    nf: str | None = None
+    nl: str | None = None
+    groups: int = 0
+    measurements: int = 0
+    rmse_ms: float = 0.0  # in-sample fit error of the model
+    fallback_rmse_ms: float = 0.0  # the same for the mean-rate fallback, for comparison
+    mean_rel_error: float = 0.0
+
+    @property
+    def has_terms(self) -> bool:
+        return self.per_kfeature > 0 or self.per_mp_level > 0
+
+    def predict(self, params: Mapping[str, Value], pixels: int) -> float:
+        mp = pixels / 1e6
+        nl = float(params[self.nl]) if self.nl and self.per_mp_level else 0.0
+        nf = float(params[self.nf]) if self.nf and self.per_kfeature else 0.0
+        return mp * (self.per_mp + self.per_mp_level * nl) + self.per_kfeature * nf / 1000
+
+
+def config_key(extractor: str, params: Mapping[str, Value]) -> str:
+    return extractor + " " + json.dumps({k: params[k] for k in sorted(params)}, sort_keys=True, separators=(",", ":"))
+
+
+@dataclass
+class CostModel:
+    """Per-graph-version expected costs (see the module docstring for the tiers)."""
+
+    configurations: dict[str, tuple[float, int]] = field(default_factory=dict)  # key → (ms per MP, n)
+    at_size: dict[tuple[str, int, int], tuple[float, int]] = field(default_factory=dict)  # (key, W, H) → (ms, n)
+    extractors: dict[str, ExtractorCost] = field(default_factory=dict)
+    typical_size: tuple[int, int] | None = None  # the (W, H) most measurements were made at
+
+    def expected(self, spec: ExtractorSpec, params: Mapping[str, Value], width: int, height: int) -> Estimate:
+        pixels = int(width) * int(height)
+        full = spec.resolve(params)
+        key = config_key(spec.name, full)
+        exact = self.at_size.get((key, int(width), int(height)))
+        if exact is not None:
+            return Estimate(exact[0], "measured", exact[1])
+        model = self.extractors.get(spec.name)
+        if model is None:
+            return Estimate(None, "unknown")
+        if model.has_terms:
+            return Estimate(model.predict(full, pixels), "model", model.measurements)
+        hit = self.configurations.get(key)
+        if hit is not None:
+            return Estimate(hit[0] * pixels / 1e6, "scaled", hit[1])
+        return Estimate(model.mean_per_mp * pixels / 1e6, "fallback", model.measurements)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "typical_size": self.typical_size,
+            "measured_configurations": len(self.configurations),
+            "extractors": {x: {k: v for k, v in m.__dict__.items()} for x, m in sorted(self.extractors.items())},
+        }
+
+
+@dataclass(frozen=True)
+class BudgetTerms:
+    """What the graph says about budgets: agents' defaults, compute classes, the budget rules' labels."""
+
+    agent_defaults: Mapping[str, float] = field(default_factory=dict)
+    compute: Mapping[str, float] = field(default_factory=dict)
+    labels: Mapping[str, str] = field(default_factory=dict)
+    relative_rules: frozenset[str] = frozenset()  # rules with nfex:relativeToBest true
+    max_relative_ate: float | None = None  # nfex:maxRelativeAte
+
+    @classmethod
+    def load(cls, kg: KnowledgeGraph) -> BudgetTerms:
+        agents = {
+            str(r["tok"]): float(_val(r["ms"]))
+            for r in kg.select("SELECT ?tok ?ms WHERE { ?v a nfex:ConditionValue ; nfex:token ?tok ; nfex:defaultBudgetMs ?ms }").rows
+        }
+        compute = {
+            str(r["tok"]): float(_val(r["f"]))
+            for r in kg.select("SELECT ?tok ?f WHERE { ?c a nfex:ComputeClass ; nfex:token ?tok ; nfex:costFactor ?f }").rows
+        }
+        labels = {
+            str(r["r"]): str(r["label"])
+            for r in kg.select("SELECT ?r ?label WHERE { ?r a nfex:BudgetRule ; rdfs:label ?label }").rows
+        }
+        relative = frozenset(str(r["r"]) for r in kg.select("SELECT ?r WHERE { ?r nfex:relativeToBest true }").rows)
+        factor = kg.select("SELECT ?v WHERE { nfex:maxRelativeAte nfex:value ?v }").rows
+        return cls(agents, compute, labels, relative, float(_val(factor[0]["v"])) if factor else None)
+
+
+def _val(term: object) -> Any:
+    """A SPARQL result term as a Python value."""
+    return term.toPython() if isinstance(term, Literal) else term
+
+
+def _role(spec: ExtractorSpec, role: str) -> str | None:
+    return next((n for n, p in spec.parameters.items() if p.role == role and p.grid_role is None), None)
+
+
+def fit_extractor(spec: ExtractorSpec, rows: list[tuple[dict[str, Value], int, float, int]]) -> ExtractorCost:
+    """Least squares over (full Θ, pixels, mean ms, n) groups, weighted by n; see the module docstring."""
+    mp = np.array([r[1] / 1e6 for r in rows])
+    y = np.array([r[2] for r in rows])
+    w = np.sqrt(np.array([r[3] for r in rows], dtype=float))
+    n = int(sum(r[3] for r in rows))
+    mean_rate = float(np.average(y / mp, weights=w**2))
+    nf, nl = _role(spec, "NF"), _role(spec, "NL")
+    cols: dict[str, np.ndarray] = {"a": mp}
+    if nf is not None:
+        v = np.array([float(r[0][nf]) for r in rows])
+        if len(set(v)) > 1 and v.min() > 0:
+            cols["b"] = v / 1000
+    if nl is not None:
+        v = np.array([float(r[0][nl]) for r in rows])
+        if len(set(v)) > 1:
+            cols["c"] = mp * v
+    while True:
+        names = list(cols)
+        x = np.stack([cols[k] for k in names], axis=1)
+        coef, *_ = np.linalg.lstsq(x * w[:, None], y * w, rcond=None)
+        bad = [k for k, c in zip(names, coef, strict=True) if k != "a" and c <= 0]
+        if not bad:
+            break
+        del cols[bad[0]]
+    fitted = dict(zip(names, (float(c) for c in coef), strict=True))
+    pred = x @ coef
+    fb = mean_rate * mp
+    return ExtractorCost(
+        extractor=spec.name,
+        per_mp=fitted["a"],
+        per_kfeature=fitted.get("b", 0.0),
+        per_mp_level=fitted.get("c", 0.0),
+        mean_per_mp=mean_rate,
+        nf=nf,
+        nl=nl,
+        groups=len(rows),
+        measurements=n,
+        rmse_ms=float(np.sqrt(np.average((pred - y) ** 2, weights=w**2))),
+        fallback_rmse_ms=float(np.sqrt(np.average((fb - y) ** 2, weights=w**2))),
+        mean_rel_error=float(np.average(np.abs(pred - y) / y, weights=w**2)),
+    )
+
+
+def fit_cost_model(kg: KnowledgeGraph, extractors: Mapping[str, ExtractorSpec]) -> CostModel:
+    """The cost model for the graph's current Measurements (two SPARQL queries, then least squares)."""
+    settings: dict[str, dict[str, Value]] = {}
+    for r in kg.select(MEASURED_SETTINGS).rows:
+        settings.setdefault(str(r["cfg"]), {})[str(r["name"])] = _val(r["v"])
+    model = CostModel()
+    per_x: dict[str, list[tuple[dict[str, Value], int, float, int]]] = {}
+    sizes: dict[tuple[int, int], int] = {}
+    per_cfg: dict[str, list[tuple[float, int]]] = {}
+    for r in kg.select(MEASURED_COSTS).rows:
+        x = str(r["xname"])
+        spec = extractors.get(x)
+        if spec is None:
+            continue
+        w, h = int(_val(r["w"])), int(_val(r["h"]))
+        mean, n = float(_val(r["mean"])), int(_val(r["n"]))
+        if w <= 0 or h <= 0 or mean <= 0:
+            continue
+        try:
+            full = spec.resolve(settings.get(str(r["cfg"]), {}))
+        except Exception:  # a configuration the current vocabulary no longer accepts: not comparable
+            continue
+        per_x.setdefault(x, []).append((full, w * h, mean, n))
+        old = model.at_size.get((config_key(x, full), w, h))
+        if old is not None:  # one configuration from several IRIs (e.g. settings listed differently)
+            mean, n = (old[0] * old[1] + mean * n) / (old[1] + n), old[1] + n
+        model.at_size[(config_key(x, full), w, h)] = (mean, n)
+        per_cfg.setdefault(config_key(x, full), []).append((mean * 1e6 / (w * h), n))
+        sizes[(w, h)] = sizes.get((w, h), 0) + n
+    for key, items in per_cfg.items():
+        n = sum(k for _, k in items)
+        model.configurations[key] = (sum(rate * k for rate, k in items) / n, n)
+    for x, rows in per_x.items():
+        model.extractors[x] = fit_extractor(extractors[x], rows)
+    if sizes:
+        model.typical_size = max(sizes, key=lambda s: sizes[s])
+    return model
