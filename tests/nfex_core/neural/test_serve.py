@@ -125,6 +125,8 @@ def test_served_values_are_values_the_sweep_measured(trained, kg: KnowledgeGraph
     checked = 0
     for c in s.candidates:
         for a in c.adjustments:
+            if any(cite.kind == "shape" for cite in a.citations):
+                continue  # a context shape clamped it after the network (rules/shapes/context.ttl)
             q = f"{c.extractor}.{a.parameter}"
             if not kg.vocabulary().extractor(c.extractor).parameter(a.parameter).scales_with_resolution:
                 assert any(abs(float(a.after) - float(v)) <= 1e-6 * max(1.0, abs(float(v))) for v in measured[q]), q  # type: ignore[arg-type]
@@ -189,7 +191,7 @@ def test_both_skips_a_network_that_validated_worse_than_its_baseline(trained, kg
     d = _edited(model, tmp_path, metrics=metrics)
     both = Advisor(kg, models=d).select(DARK)
     assert both.versions["model"]["used"] == "selectornet"
-    assert "0.05 > 0.01" in both.versions["model"]["skipped"]["paramnet"]
+    assert "0.05 >= 0.01" in both.versions["model"]["skipped"]["paramnet"]
     assert both.params == symbolic_params(kg, both.extractor, DARK)
     forced = Advisor(kg, models=d, neural="paramnet").select(DARK)
     assert forced.versions["model"]["used"] == "paramnet" and "skipped" not in forced.versions["model"]

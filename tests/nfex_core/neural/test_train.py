@@ -46,7 +46,7 @@ def test_read_table_labels(tmp_path: Path, vocab) -> None:  # type: ignore[no-un
     assert len(windows) == 4  # 2 windows × (none, dark)
     dark = [w for w in windows if w.corruption == "dark"]
     assert all(w.label == "ORB" for w in dark) and all(w.context["light"] == "dark" for w in dark)
-    assert all(set(w.best_params) == {"AKAZE", "BRISK", "ORB", "SIFT"} for w in windows)
+    assert all(set(w.best_params) == set(vocab.extractors) for w in windows)
     assert all(w.context["motion"] is None for w in windows)
 
 
