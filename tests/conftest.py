@@ -90,6 +90,16 @@ def bare_kg(bare_template: tuple[Path, Settings], tmp_path: Path) -> Iterator[Kn
 
 
 @pytest.fixture
+def bare_cli_env(bare_template: tuple[Path, Settings], tmp_path: Path) -> dict[str, str]:
+    """CLI environment on a copy of the store without shipped measurements (and no trained model)."""
+    dest = tmp_path / "bare-cli-store"
+    shutil.copytree(bare_template[0], dest, ignore=shutil.ignore_patterns("LOCK"))
+    env = dict(os.environ)
+    env.update(NFEX_STORE=str(dest), NFEX_HOME=str(bare_template[1].home), NFEX_AUTHOR="test", NFEX_NEURAL="symbolic")
+    return env
+
+
+@pytest.fixture
 def oxigraph_server(tmp_path: Path) -> Iterator[str]:
     """A real ``oxigraph serve`` process on a free loopback port; yields its base URL."""
     exe = shutil.which("oxigraph") or str(Path(sys.executable).parent / "oxigraph")

@@ -11,8 +11,8 @@ from nfex_core.rules.dsl.seed import ontology_vocabulary
 from tests.conftest import run_cli
 
 
-def test_context_only_json(cli_env: dict[str, str]) -> None:
-    p = run_cli(["select", "--context", "agent=car,motion=fast,light=dark", "--json"], cli_env)
+def test_context_only_json(bare_cli_env: dict[str, str]) -> None:
+    p = run_cli(["select", "--context", "agent=car,motion=fast,light=dark", "--json"], bare_cli_env)
     assert p.returncode == 0, p.stderr
     sel = json.loads(p.stdout)
     assert sel["mode"] == "prior" and sel["extractor"] in {"ORB", "ORB_GRID", "AKAZE", "BRISK"}
@@ -24,11 +24,11 @@ def test_context_only_json(cli_env: dict[str, str]) -> None:
     assert orb["params"]["fastThreshold"] == 10  # 20 × 0.5 in the dark (default.nfex)
 
 
-def test_context_only_text(cli_env: dict[str, str]) -> None:
-    p = run_cli(["select", "-c", "agent=car,motion=fast"], cli_env)
+def test_context_only_text(bare_cli_env: dict[str, str]) -> None:
+    p = run_cli(["select", "-c", "agent=car,motion=fast"], bare_cli_env)
     assert p.returncode == 0, p.stderr
     assert "pruned:\n  SIFT: its gradient-histogram descriptor failed" in p.stdout
-    # ORB or the grid-spread ORB (measured more accurate on KITTI 00, ontology/measurements): both adjusted
+    # ORB or the grid-spread ORB: both adjusted for cars by default.nfex
     assert "nfeatures = " in p.stdout and ".nfeatures by 1.5 when agent is car" in p.stdout
 
 
@@ -73,3 +73,13 @@ def test_a_budget_in_the_context_prunes_by_measured_cost(cli_env: dict[str, str]
     assert "budget: 20 ms per frame (given" in p.stdout
     bad = run_cli(["select", "-c", "agent=car,budget_ms=fast"], cli_env)
     assert bad.returncode == 2 and "budget_ms must be a number" in bad.stderr
+
+
+def test_with_the_shipped_measurements_the_measured_extractor_wins(cli_env: dict[str, str]) -> None:
+    """The shipped KITTI 00 sweep measured SIFT best for cars under motion blur: the expert prior yields."""
+    p = run_cli(["select", "--context", "agent=car,motion=fast", "--json"], cli_env)
+    assert p.returncode == 0, p.stderr
+    sel = json.loads(p.stdout)
+    sift = next(c for c in sel["candidates"] if c["extractor"] == "SIFT")
+    assert sift["evidence"]["windows"] > 0 and sift["evidence"]["mean_ate_m"] > 0
+    assert all(not b["rule"].endswith("rule_expert_fast_car_gradient_histograms") for x in sel["pruned"] for b in x["because"])
