@@ -6,6 +6,7 @@ COPY nfex_core ./nfex_core
 COPY service ./service
 COPY ontology ./ontology
 COPY rules ./rules
+COPY models ./models
 RUN pip install --no-cache-dir -e .
 ENV NFEX_HOST=0.0.0.0 NFEX_PORT=8000 NFEX_HOME=/app
 EXPOSE 8000
