@@ -98,29 +98,29 @@ def test_parameter_patch_is_shacl_checked(service: Service) -> None:
 
 
 EXTRACTOR = """@prefix nfex: <https://w3id.org/nfex#> .
-nfex:ORB_GRID a nfex:FeatureExtractor ; nfex:token "ORB_GRID" ; nfex:opencvConstructor "ORB_create" ;
+nfex:ORB_WIDE a nfex:FeatureExtractor ; nfex:token "ORB_WIDE" ; nfex:opencvConstructor "ORB_create" ;
     nfex:matchNorm "NORM_HAMMING" ; nfex:descriptorKind nfex:BinaryDescriptor ; nfex:performs nfex:SteeredBRIEF .
 """
 
 
 def test_extractor_put_get_delete(service: Service) -> None:
-    r = httpx.put(service.url + "/v1/extractors/ORB_GRID", content=EXTRACTOR, headers={"content-type": "text/turtle", **auth()})
+    r = httpx.put(service.url + "/v1/extractors/ORB_WIDE", content=EXTRACTOR, headers={"content-type": "text/turtle", **auth()})
     if r.status_code == 422:  # the seed's descriptor kinds / operations differ: report which
         pytest.fail(r.text)
     assert r.status_code == 201, r.text
-    assert httpx.get(service.url + "/v1/extractors/ORB_GRID").json()["constructor"] == "ORB_create"
-    ttl = httpx.get(service.url + "/v1/extractors/ORB_GRID", headers={"accept": "text/turtle"})
+    assert httpx.get(service.url + "/v1/extractors/ORB_WIDE").json()["constructor"] == "ORB_create"
+    ttl = httpx.get(service.url + "/v1/extractors/ORB_WIDE", headers={"accept": "text/turtle"})
     assert "ORB_create" in ttl.text
     broken = EXTRACTOR.replace('"NORM_HAMMING"', '"NORM_FANCY"')
     before = service.version()
-    assert_problem(httpx.put(service.url + "/v1/extractors/ORB_GRID", content=broken, headers={"content-type": "text/turtle", **auth()}), 422)
-    assert_problem(httpx.put(service.url + "/v1/extractors/ORB_GRID", content="nfex:x nfex:y", headers={"content-type": "text/turtle", **auth()}), 400)
-    assert_problem(httpx.put(service.url + "/v1/extractors/ORB_GRID", content=EXTRACTOR, headers={"content-type": "application/json", **auth()}), 415)
+    assert_problem(httpx.put(service.url + "/v1/extractors/ORB_WIDE", content=broken, headers={"content-type": "text/turtle", **auth()}), 422)
+    assert_problem(httpx.put(service.url + "/v1/extractors/ORB_WIDE", content="nfex:x nfex:y", headers={"content-type": "text/turtle", **auth()}), 400)
+    assert_problem(httpx.put(service.url + "/v1/extractors/ORB_WIDE", content=EXTRACTOR, headers={"content-type": "application/json", **auth()}), 415)
     other = EXTRACTOR + "nfex:ORB rdfs:label \"hijack\" .\n@prefix rdfs: <http://www.w3.org/2000/01/rdf-schema#> ."
-    assert_problem(httpx.put(service.url + "/v1/extractors/ORB_GRID", content=other, headers={"content-type": "text/turtle", **auth()}), 400)
+    assert_problem(httpx.put(service.url + "/v1/extractors/ORB_WIDE", content=other, headers={"content-type": "text/turtle", **auth()}), 400)
     assert service.version() == before
-    assert httpx.delete(service.url + "/v1/extractors/ORB_GRID", headers=auth()).status_code == 200
-    assert_problem(httpx.get(service.url + "/v1/extractors/ORB_GRID"), 422, "unknown-name")
+    assert httpx.delete(service.url + "/v1/extractors/ORB_WIDE", headers=auth()).status_code == 200
+    assert_problem(httpx.get(service.url + "/v1/extractors/ORB_WIDE"), 422, "unknown-name")
 
 
 def test_program_resource_with_the_dsl(service: Service) -> None:

@@ -112,7 +112,7 @@ def test_a_budget_flips_the_choice_on_a_real_frame(measured: KnowledgeGraph, dat
     _, g = programs.compile_text('program accurate\nprefer SIFT by 5 because "test: SIFT was most accurate here"',
                                  measured.vocabulary(), name="accurate")
     programs.apply(measured, g, "accurate", author="test")
-    advisor = Advisor(measured)
+    advisor = Advisor(measured, neural="symbolic")  # the preference decides, not the shipped model
     free = advisor.select(CTX, image)
     assert free.mode == "metrics" and free.extractor == "SIFT"
     tight = advisor.select(CTX, image, budget_ms=20)

@@ -40,12 +40,12 @@ def test_expert_rule_prunes_sift_on_fast_cars_and_is_cited(bare_kg: KnowledgeGra
     assert "SIFT" in table.decide({"agent": "car"}).candidates
 
 
-def test_expert_rule_yields_to_own_measurements(bare_kg: KnowledgeGraph, kg: KnowledgeGraph) -> None:
+def test_expert_rule_yields_to_own_measurements(bare_kg: KnowledgeGraph, shipped_kg: KnowledgeGraph) -> None:
     """Regression: the paper's prior pruned SIFT on every fast-car frame although our KITTI sweep
     measured SIFT best there; once the graph holds such measurements the measured rules judge."""
     rule = N + "rule_expert_fast_car_gradient_histograms"
     ctx = {"agent": "car", "motion": "fast"}
-    shipped = compile_table(kg).decide(ctx)  # the shipped KITTI 00 sweep measured SIFT under car + motion blur
+    shipped = compile_table(shipped_kg).decide(ctx)  # the shipped KITTI 00 sweep measured SIFT under car + motion blur
     assert "SIFT" in shipped.candidates and shipped.evidence["SIFT"].windows > 0
     ttl = P + """
 nfex:seq_e a nfex:Sequence . nfex:cfg_e a nfex:Configuration ; nfex:ofExtractor nfex:SIFT .
