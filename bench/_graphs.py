@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import random
 
-from rdflib import Literal, URIRef
+from rdflib import Literal
 from rdflib.namespace import RDF, XSD
 
 from nfex_core.kg import ChangeSet

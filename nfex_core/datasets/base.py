@@ -8,7 +8,8 @@ rotation vectors) so that everything downstream — VO, ATE, sweeps, corruptions
 """
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence as Seq
+from collections.abc import Iterator
+from collections.abc import Sequence as Seq
 from dataclasses import dataclass, field
 
 import numpy as np

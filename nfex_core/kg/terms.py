@@ -8,8 +8,8 @@ blank node cannot be addressed by a later request — a DELETE of a blank node m
 from __future__ import annotations
 
 import hashlib
-from decimal import Decimal
 from collections.abc import Iterable
+from decimal import Decimal
 
 import pyoxigraph as ox
 import rdflib

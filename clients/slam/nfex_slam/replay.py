@@ -127,9 +127,9 @@ def replay(
 ) -> ReplayResult:
     """Run the VO over ``sequence`` through a session; report feedback per window; write TUM; return ATE."""
     import cv2
-    from nfex_core.vo import run_vo
 
     from nfex_core.trajectory import Trajectory, write_tum
+    from nfex_core.vo import run_vo
 
     own = client is None
     client = client or NfexClient(base_url)

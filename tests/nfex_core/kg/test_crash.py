@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import signal
 import subprocess
-import os, sys
+import sys
 import time
 from pathlib import Path
 
