@@ -26,7 +26,7 @@ def settings() -> Settings:
     return Settings.from_env()
 
 
-def open_kg(seed: bool = True):  # type: ignore[no-untyped-def]
+def open_kg(seed: bool = True):
     from ..kg import KnowledgeGraph
 
     return KnowledgeGraph.open(state.store, seed=seed)

@@ -19,7 +19,7 @@ ExpectOpt = Annotated[
 ]
 
 
-def _files_graph(files: list[Path]):  # type: ignore[no-untyped-def]
+def _files_graph(files: list[Path]):
     import rdflib
 
     from ..kg import read_rdf_file
@@ -30,7 +30,7 @@ def _files_graph(files: list[Path]):  # type: ignore[no-untyped-def]
     return g
 
 
-def _report(result, what: str) -> None:  # type: ignore[no-untyped-def]
+def _report(result, what: str) -> None:
     if result.changed:
         typer.echo(f"version {result.version}: {what} (+{result.added} −{result.removed} triples)")
     else:

@@ -53,7 +53,7 @@ class Sequence(Seq[Frame]):
     def __len__(self) -> int:
         raise NotImplementedError
 
-    def __getitem__(self, i):  # type: ignore[no-untyped-def, override]
+    def __getitem__(self, i):
         raise NotImplementedError
 
     def __iter__(self) -> Iterator[Frame]:

@@ -44,7 +44,7 @@ class SelectResult:
     variables: list[str]
     rows: list[Row]
 
-    def __iter__(self):  # type: ignore[no-untyped-def]
+    def __iter__(self):
         return iter(self.rows)
 
     def __len__(self) -> int:

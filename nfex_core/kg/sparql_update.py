@@ -37,7 +37,7 @@ def change_of_update(kg: KnowledgeGraph, update: str) -> ChangeSet:
     if any(isinstance(x, ox.BlankNode) for t in after - before for x in (t[0], t[2])):
         raise BadInput("the update creates blank nodes; give new nodes IRIs so later writes can address them")
 
-    def conv(ts: set[tuple[object, object, object]]) -> frozenset:  # type: ignore[type-arg]
+    def conv(ts: set[tuple[object, object, object]]) -> frozenset:
         return frozenset((from_oxigraph(s), from_oxigraph(p), from_oxigraph(o)) for s, p, o in ts)
 
     return ChangeSet(added=conv(after - before), removed=conv(before - after))

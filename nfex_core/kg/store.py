@@ -141,7 +141,7 @@ class KnowledgeGraph:
         res = self.backend.select(
             f"SELECT ?v WHERE {{ GRAPH {n3(META)} {{ {n3(HEAD)} {n3(NFEX.versionNumber)} ?v }} }}"
         )
-        values = [int(r["v"].toPython()) for r in res.rows]  # type: ignore[union-attr]
+        values = [int(r["v"].toPython()) for r in res.rows]
         return max(values) if values else 0
 
     def select(self, query: str, *, prefixes: bool = True) -> SelectResult:
@@ -165,7 +165,7 @@ class KnowledgeGraph:
 
     def triple_count(self) -> int:
         res = self.backend.select("SELECT (COUNT(*) AS ?n) WHERE { ?s ?p ?o }")
-        return int(res.rows[0]["n"].toPython())  # type: ignore[union-attr]
+        return int(res.rows[0]["n"].toPython())
 
     def on_commit(self, listener: Callable[[int], None]) -> None:
         """Call ``listener(new_version)`` after every commit made through this object."""
@@ -177,7 +177,7 @@ class KnowledgeGraph:
         with self._cache_lock:
             hit = self._cache.get(key)
             if hit is not None and hit[0] == v:
-                return hit[1]  # type: ignore[no-any-return]
+                return hit[1]
         value = build()
         # a commit between reading v and building is caught by the next call's version check
         with self._cache_lock:
@@ -187,7 +187,7 @@ class KnowledgeGraph:
     def shapes(self) -> validation.Shapes:
         return self.cached("shapes", lambda: validation.extract_shapes(self.backend))
 
-    def vocabulary(self):  # type: ignore[no-untyped-def]
+    def vocabulary(self):
         from .vocab import Vocabulary
 
         return self.cached("vocabulary", lambda: Vocabulary.load(self))
@@ -376,12 +376,12 @@ class KnowledgeGraph:
         rows = self.select(q).rows
         return [
             Version(
-                number=int(r["n"].toPython()),  # type: ignore[union-attr]
+                number=int(r["n"].toPython()),
                 author=str(r["author"]),
-                time=r["time"].toPython() if isinstance(r["time"].toPython(), datetime) else None,  # type: ignore[union-attr]
+                time=r["time"].toPython() if isinstance(r["time"].toPython(), datetime) else None,
                 message=str(r["msg"]),
-                added=int(r["a"].toPython()),  # type: ignore[union-attr]
-                removed=int(r["r"].toPython()),  # type: ignore[union-attr]
+                added=int(r["a"].toPython()),
+                removed=int(r["r"].toPython()),
             )
             for r in rows
         ]

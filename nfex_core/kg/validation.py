@@ -199,7 +199,7 @@ class PreparedQueryGraph(rdflib.Graph):
 
     _prepared: dict[tuple[str, tuple[tuple[str, str], ...]], Any] = {}
 
-    def query(self, query_object: Any, *args: Any, **kwargs: Any) -> Any:  # type: ignore[override]
+    def query(self, query_object: Any, *args: Any, **kwargs: Any) -> Any:
         if isinstance(query_object, str):
             init_ns = kwargs.get("initNs") or (args[2] if len(args) > 2 else None) or {}
             key = (query_object, tuple(sorted((k, str(v)) for k, v in dict(init_ns).items())))

@@ -118,9 +118,9 @@ def _evidence(kg: KnowledgeGraph) -> dict[tuple[str, str, str], tuple[float | No
     ).rows
     out: dict[tuple[str, str, str], tuple[float | None, int, float | None]] = {}
     for r in rows:
-        mean = float(r["mean"].toPython()) if "mean" in r else None  # type: ignore[union-attr]
-        cost = float(r["cost"].toPython()) if "cost" in r else None  # type: ignore[union-attr]
-        out[(str(r["xname"]), str(r["dim"]), str(r["val"]))] = (mean, int(r["n"].toPython()), cost)  # type: ignore[union-attr]
+        mean = float(r["mean"].toPython()) if "mean" in r else None
+        cost = float(r["cost"].toPython()) if "cost" in r else None
+        out[(str(r["xname"]), str(r["dim"]), str(r["val"]))] = (mean, int(r["n"].toPython()), cost)
     return out
 
 
@@ -156,7 +156,7 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
             for x, reason in found:
                 spec = vocab.by_iri.get(URIRef(x))
                 if spec is not None:
-                    pruned_by_rules.setdefault(i, []).append((spec.name, Citation(str(rule.iri), rule.label, reason, "sparql", rule.source)))  # type: ignore[attr-defined]
+                    pruned_by_rules.setdefault(i, []).append((spec.name, Citation(str(rule.iri), rule.label, reason, "sparql", rule.source)))
 
     statements = load_statements(kg, vocab)
     from .shapes import load_context_shapes  # shapes.py imports this module

@@ -150,5 +150,5 @@ def evaluate(
     for r in rows:
         if "extractor" not in r or not isinstance(r["extractor"], URIRef):
             continue
-        out.setdefault(int(r["ctx"].toPython()), []).append((r["extractor"], str(r.get("reason", rule.label))))  # type: ignore[union-attr]
+        out.setdefault(int(r["ctx"].toPython()), []).append((r["extractor"], str(r.get("reason", rule.label))))
     return out

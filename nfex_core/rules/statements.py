@@ -114,7 +114,7 @@ def load_statements(kg: KnowledgeGraph, vocab: Vocabulary) -> list[Statement]:
                 reason=str(r.get("reason", label)),
                 program=str(r["program"]),
                 order=int(_py(r["order"])) if "order" in r else 0,  # type: ignore[call-overload]
-                atoms=tuple(Atom(d, frozenset(vs), neg) for d, vs, neg in atoms.get(r["s"], {}).values()),  # type: ignore[arg-type]
+                atoms=tuple(Atom(d, frozenset(vs), neg) for d, vs, neg in atoms.get(r["s"], {}).values()),
                 source=source,
                 extractor=extractor,
                 parameter=parameter,
