@@ -32,6 +32,8 @@ class _Indexed(Sequence):
 
     _n: int
     _ids: list[int]
+    _timestamps: np.ndarray
+    _poses: np.ndarray | None
 
     def __len__(self) -> int:
         return self._n
@@ -46,17 +48,28 @@ class _Indexed(Sequence):
             raise IndexError(f"frame {i} out of range for {self.key} ({self._n} frames)")
         return self._frame(idx)
 
+    @property
+    def timestamps(self) -> np.ndarray:
+        return self._timestamps.copy()
+
+    @property
+    def poses(self) -> np.ndarray | None:
+        """(N, 4, 4) camera-to-world; NaN rows where a frame has no ground truth; None when none has."""
+        if self._poses is None or np.all(np.isnan(self._poses)):
+            return None
+        return self._poses.copy()
+
+    def _pose(self, i: int) -> np.ndarray | None:
+        """Frame ``i``'s pose, or None where it has no ground truth."""
+        if self._poses is None or np.isnan(self._poses[i]).any():
+            return None
+        return self._poses[i].copy()
+
     def _frame(self, i: int) -> Frame:
         raise NotImplementedError
 
     def _take(self, ids: list[int]) -> Sequence:
         raise NotImplementedError
-
-
-def _poses_or_none(poses: np.ndarray | None) -> np.ndarray | None:
-    if poses is None or np.all(np.isnan(poses)):
-        return None
-    return poses
 
 
 class ImageSequence(_Indexed):
@@ -93,21 +106,8 @@ class ImageSequence(_Indexed):
     def paths(self) -> list[Path]:
         return list(self._paths)
 
-    @property
-    def timestamps(self) -> np.ndarray:
-        return self._timestamps.copy()
-
-    @property
-    def poses(self) -> np.ndarray | None:
-        """(N, 4, 4) camera-to-world; NaN rows where a frame has no ground truth; None when none has."""
-        p = _poses_or_none(self._poses)
-        return None if p is None else p.copy()
-
     def _frame(self, i: int) -> Frame:
-        pose = None
-        if self._poses is not None and not np.isnan(self._poses[i]).any():
-            pose = self._poses[i].copy()
-        return Frame(self._ids[i], float(self._timestamps[i]), self._loader(self._paths[i]), pose, dict(self.context))
+        return Frame(self._ids[i], float(self._timestamps[i]), self._loader(self._paths[i]), self._pose(i), dict(self.context))
 
     def _take(self, ids: list[int]) -> Sequence:
         return ImageSequence(
@@ -151,21 +151,9 @@ class ArraySequence(_Indexed):
         if self._timestamps.shape != (self._n,) or len(self._frame_context) != self._n:
             raise ValueError("images, timestamps and frame contexts differ in length")
 
-    @property
-    def timestamps(self) -> np.ndarray:
-        return self._timestamps.copy()
-
-    @property
-    def poses(self) -> np.ndarray | None:
-        p = _poses_or_none(self._poses)
-        return None if p is None else p.copy()
-
     def _frame(self, i: int) -> Frame:
-        pose = None
-        if self._poses is not None and not np.isnan(self._poses[i]).any():
-            pose = self._poses[i].copy()
         ctx = dict(self.context) | self._frame_context[i]
-        return Frame(self._ids[i], float(self._timestamps[i]), self._images[i], pose, ctx)
+        return Frame(self._ids[i], float(self._timestamps[i]), self._images[i], self._pose(i), ctx)
 
     def _take(self, ids: list[int]) -> Sequence:
         return ArraySequence(
