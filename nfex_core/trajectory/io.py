@@ -169,13 +169,17 @@ def read_trajectory(path: str | Path, format: str) -> Trajectory:  # noqa: A002 
     raise BadInput(f"unknown trajectory format {format!r}; known: {', '.join(FORMATS)}")
 
 
+def _stamped_tq(traj: Trajectory):
+    """(t, x, y, z, quaternion x, y, z, w) per pose, for the writers of quaternion formats."""
+    for t, pose in zip(traj.timestamps, traj.poses, strict=True):
+        yield (t, *pose[:3, 3], *matrix_to_quaternion(pose[:3, :3]))
+
+
 def write_tum(path: str | Path, traj: Trajectory) -> None:
     with Path(path).open("w") as fh:
         fh.write("# timestamp tx ty tz qx qy qz qw\n")
-        for t, pose in zip(traj.timestamps, traj.poses, strict=True):
-            q = matrix_to_quaternion(pose[:3, :3])
-            x, y, z = pose[:3, 3]
-            fh.write(f"{t:.9f} {x:.9f} {y:.9f} {z:.9f} {q[0]:.9f} {q[1]:.9f} {q[2]:.9f} {q[3]:.9f}\n")
+        for t, x, y, z, qx, qy, qz, qw in _stamped_tq(traj):
+            fh.write(f"{t:.9f} {x:.9f} {y:.9f} {z:.9f} {qx:.9f} {qy:.9f} {qz:.9f} {qw:.9f}\n")
 
 
 def write_kitti(path: str | Path, traj: Trajectory) -> None:
@@ -187,10 +191,8 @@ def write_kitti(path: str | Path, traj: Trajectory) -> None:
 def write_euroc(path: str | Path, traj: Trajectory) -> None:
     with Path(path).open("w") as fh:
         fh.write("#timestamp [ns], p_x [m], p_y [m], p_z [m], q_w [], q_x [], q_y [], q_z []\n")
-        for t, pose in zip(traj.timestamps, traj.poses, strict=True):
-            q = matrix_to_quaternion(pose[:3, :3])
-            x, y, z = pose[:3, 3]
-            fh.write(f"{round(t * 1e9)},{x:.9f},{y:.9f},{z:.9f},{q[3]:.9f},{q[0]:.9f},{q[1]:.9f},{q[2]:.9f}\n")
+        for t, x, y, z, qx, qy, qz, qw in _stamped_tq(traj):
+            fh.write(f"{round(t * 1e9)},{x:.9f},{y:.9f},{z:.9f},{qw:.9f},{qx:.9f},{qy:.9f},{qz:.9f}\n")
 
 
 def write_trajectory(path: str | Path, traj: Trajectory, format: str) -> None:  # noqa: A002
