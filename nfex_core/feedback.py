@@ -9,8 +9,6 @@ measurement-based pruning rules (rules/pruning/measured-*.rq) count it from the 
 """
 from __future__ import annotations
 
-import hashlib
-import json
 import re
 import uuid
 from dataclasses import dataclass, field
@@ -25,6 +23,8 @@ from . import __version__
 from .errors import BadInput
 from .kg.vocab import Value, Vocabulary
 from .namespaces import NFEX
+from .sweeps import records
+from .sweeps.grid import canonical
 
 
 @dataclass(frozen=True)
@@ -64,8 +64,8 @@ def run_iri(fb: Feedback, now: datetime) -> URIRef:
 
 
 def configuration_iri(extractor: str, theta: dict[str, Value]) -> URIRef:
-    digest = hashlib.sha1(json.dumps(theta, sort_keys=True).encode()).hexdigest()[:12]
-    return NFEX[f"cfg_{slug(extractor)}_{digest}"]
+    """The sweeps' IRI for (α, Θ), so feedback and sweep measurements of one configuration share it."""
+    return records.configuration_iri(extractor, canonical(theta))
 
 
 def configuration_graph(vocab: Vocabulary, extractor: str, params: dict[str, Any]) -> tuple[rdflib.Graph, URIRef]:

@@ -1,6 +1,8 @@
 """POST /v1/feedback: a Measurement with provenance, SHACL-checked, counted by the measured pruning rules."""
 from __future__ import annotations
 
+import json
+
 import httpx
 import pytest
 
@@ -68,3 +70,24 @@ def test_enough_bad_feedback_prunes_an_extractor_from_the_next_commit_on(service
     assert because[0]["rule"] == TRACKING_LOSS_RULE
     assert "60% of frames over 3 measured windows with texture = high" in because[0]["reason"]
     assert "BRISK" not in pruned(service, {"texture": "low"})  # only where it was measured
+
+
+def test_feedback_and_sweeps_name_one_configuration_alike(kg) -> None:  # type: ignore[no-untyped-def]
+    """A client's report and a sweep row for the same (α, Θ) use one configuration IRI, so per-configuration
+    queries (cost tier 1, measured pruning) see both."""
+    from rdflib.namespace import SOSA
+
+    from nfex_core.feedback import Feedback, measurement_graph
+    from nfex_core.namespaces import NFEX
+    from nfex_core.sweeps.records import RunInfo
+    from nfex_core.sweeps.records import measurement_graph as sweep_graph
+
+    vocab = kg.vocabulary()
+    theta = vocab.extractor("ORB").resolve({"nfeatures": 1500})
+    row = {"dataset": "kitti", "sequence": "00", "corruption": "none", "severity": 0.0, "window_start": 0, "window_end": 10,
+           "frames": 10, "extractor": "ORB", "params": json.dumps(theta, sort_keys=True, separators=(",", ":")),
+           "ate_rmse": 1.0, "rpe_rmse": 0.1, "tracking_lost": 0, "failed": 0, "width": 1241, "height": 376, "cell": "x"}
+    swept = {o for o in sweep_graph([row], vocab, RunInfo(command="test")).objects(None, SOSA.usedProcedure)}
+    g, m = measurement_graph(vocab, Feedback(extractor="ORB", params={"nfeatures": 1500}, ate_rmse=1.0))
+    assert set(g.objects(m, SOSA.usedProcedure)) == swept and len(swept) == 1
+    assert next(iter(swept)).startswith(str(NFEX["cfg_ORB_"]))
