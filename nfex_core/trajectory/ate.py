@@ -187,8 +187,7 @@ def rpe(
     ``from_first_pose=False`` reproduces evo's 2018 consecutive metre pairs (see ``pairs_by_path``)."""
     if delta <= 0:
         raise BadInput(f"delta must be positive, got {delta}")
-    r, e = associate(ref, est, t_max_diff)
-    e, alignment = align_trajectory(e, r, align)
+    r, e, alignment = associate_and_align(ref, est, align, t_max_diff)
     base = r if pairs_from_reference else e
     if delta_unit == "f":
         if float(delta) != int(delta):
