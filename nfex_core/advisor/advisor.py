@@ -161,13 +161,16 @@ class Advisor:
         compute = compute or ctx.pop("compute", None)
         ctx.pop("compute", None)
         given = snap.vocab.check_context(ctx)
-        image = None
+        image = stats = None
         if frame is not None:
             from ..vision.registry import as_grey_u8  # imports cv2: only when a frame comes
+            from ..vision.statistics import frame_statistics
 
             image = as_grey_u8(frame)
         lap("snapshot")
-        entries, values = self._conditions(snap.vocab, given, image, previous)
+        if image is not None:  # once per request: context estimation and ParamNet both read them
+            stats = frame_statistics(image, previous.image if previous is not None else None)
+        entries, values = self._conditions(snap.vocab, given, image, previous, stats)
         lap("conditions")
         decision = snap.table.decide(values)
         if not decision.candidates:
@@ -182,7 +185,7 @@ class Advisor:
         lap("symbolic")
         nn = self.neural.step(snap.vocab)
         if nn.active:
-            nn.prepare(values, frame_stats(image))
+            nn.prepare(values, frame_stats(stats))
             lap("neural")
         scored, state, mode, outcome, cut = self._score(snap, decision, budget, nn, image, previous)
         if nn.selectornet and scored:
@@ -295,7 +298,12 @@ class Advisor:
         return {x: outcome.params[x] for x in theta if x in outcome.params}, adjustments, outcome, cut
 
     def _conditions(
-        self, vocab: Vocabulary, given: dict[str, str], image: np.ndarray | None, previous: FrameState | None
+        self,
+        vocab: Vocabulary,
+        given: dict[str, str],
+        image: np.ndarray | None,
+        previous: FrameState | None,
+        stats: Mapping[str, float] | None,
     ) -> tuple[list[ContextEntry], dict[str, str | None]]:
         """Given dimensions win; estimable ones are estimated from the frame; the rest stay unknown."""
         estimates: dict[str, ContextEntry] = {}
@@ -303,7 +311,7 @@ class Advisor:
             from ..vision.context import estimate_context
 
             prev = previous.image if previous is not None else None
-            ctx = estimate_context(vocab, given, downscale(image, self.score_max_side), prev)
+            ctx = estimate_context(vocab, given, image, prev, stats=stats)
             for e in ctx.entries():
                 estimates[e.dimension] = ContextEntry(e.dimension, e.value, e.source, e.confidence, e.evidence)
         entries: list[ContextEntry] = []

@@ -172,12 +172,11 @@ class ModelHolder:
         return NeuralStep(model, p, s, {**info, "used": used, "load_ms": round(self.load_ms or 0.0, 3)})
 
 
-def frame_stats(image: np.ndarray | None) -> dict[str, float] | None:
-    """The frame statistics ParamNet was trained on (vision.context), or None without a frame or that module."""
-    if image is None:
+def frame_stats(stats: Mapping[str, float] | None) -> dict[str, float] | None:
+    """The frame statistics as ParamNet was trained on them: those of the frame alone (the sweep's rows
+    have no previous frame), so the motion keys read as without one."""
+    if stats is None:
         return None
-    try:
-        from ..vision.context import frame_statistics
-    except ImportError:
-        return None
-    return dict(frame_statistics(image))
+    from ..vision.statistics import FLOW_KEYS
+
+    return {**stats, **dict.fromkeys(FLOW_KEYS, 0.0)}

@@ -132,13 +132,17 @@ def estimate_context(
     given: Mapping[str, str | None],
     image: np.ndarray,
     previous_image: np.ndarray | None = None,
+    *,
+    stats: Mapping[str, float] | None = None,
 ) -> Context:
     """The context of ``image``: ``given`` dimensions as given, estimable ones estimated, the rest unknown.
 
     A dimension is estimated only when the graph marks it estimable, an estimator for it exists and the
-    estimated value is one the graph knows for that dimension.
+    estimated value is one the graph knows for that dimension. ``stats``: ``frame_statistics(image,
+    previous_image)`` when the caller already has them (the advisor computes them once per request).
     """
-    stats = frame_statistics(image, previous_image)
+    if stats is None:
+        stats = frame_statistics(image, previous_image)
     out: list[Estimate] = []
     for name, dim in vocab.dimensions.items():
         value = given.get(name)

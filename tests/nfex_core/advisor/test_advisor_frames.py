@@ -42,3 +42,22 @@ def test_select_on_a_kitti_frame_and_a_stream_of_two(kg: KnowledgeGraph, data_di
         assert c.metrics["repeatability"] > 0.2 and c.metrics["stability"] > 0.1 and c.metrics["motion"] < 0.5
     motion = next(e for e in second.context if e.dimension == "motion")
     assert "flow" in (motion.evidence or "")
+
+
+def test_frame_statistics_are_computed_once_per_request(kg: KnowledgeGraph, data_dir: Path, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    import nfex_core.vision.context as context
+    import nfex_core.vision.statistics as statistics
+
+    files = sorted((data_dir / KITTI).glob("*.png"))
+    frame = cv2.imread(str(files[40]), cv2.IMREAD_GRAYSCALE)
+    calls: list[tuple[int, ...]] = []
+    real = statistics.frame_statistics
+
+    def counting(image, previous_image=None):  # type: ignore[no-untyped-def]
+        calls.append(image.shape)
+        return real(image, previous_image)
+
+    monkeypatch.setattr(statistics, "frame_statistics", counting)
+    monkeypatch.setattr(context, "frame_statistics", counting)
+    Advisor(kg, neural="paramnet").select({"agent": "car"}, frame=frame)
+    assert calls == [frame.shape]  # context estimation and ParamNet share one computation on the frame
