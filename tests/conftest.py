@@ -76,12 +76,16 @@ def seeded_template(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return path
 
 
+def _copy_store(template: Path, dest: Path) -> Path:
+    """A private copy of a template store (its LOCK file left behind) at ``dest``."""
+    shutil.copytree(template, dest, ignore=shutil.ignore_patterns("LOCK"))
+    return dest
+
+
 @pytest.fixture
 def store_path(seeded_template: Path, tmp_path: Path) -> Path:
     """A fresh copy of the seeded store in this test's folder."""
-    dest = tmp_path / "store"
-    shutil.copytree(seeded_template, dest, ignore=shutil.ignore_patterns("LOCK"))
-    return dest
+    return _copy_store(seeded_template, tmp_path / "store")
 
 
 @pytest.fixture
@@ -108,44 +112,50 @@ def shipped_template(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Se
     return path, settings
 
 
+def _open_copy(template: tuple[Path, Settings], dest: Path) -> Iterator[KnowledgeGraph]:
+    graph = KnowledgeGraph.open(str(_copy_store(template[0], dest)), settings=template[1], seed=False)
+    yield graph
+    graph.close()
+
+
+def _cli_env(store: Path, home: Path, **extra: str) -> dict[str, str]:
+    env = dict(os.environ)
+    env.update(NFEX_STORE=str(store), NFEX_HOME=str(home), NFEX_AUTHOR="test", **extra)
+    return env
+
+
 @pytest.fixture
 def shipped_kg(shipped_template: tuple[Path, Settings], tmp_path: Path) -> Iterator[KnowledgeGraph]:
     """A fresh copy of the store with the shipped measurements (ontology/measurements/)."""
-    dest = tmp_path / "shipped-store"
-    shutil.copytree(shipped_template[0], dest, ignore=shutil.ignore_patterns("LOCK"))
-    graph = KnowledgeGraph.open(str(dest), settings=shipped_template[1], seed=False)
-    yield graph
-    graph.close()
+    yield from _open_copy(shipped_template, tmp_path / "shipped-store")
 
 
 @pytest.fixture
 def shipped_cli_env(shipped_template: tuple[Path, Settings], tmp_path: Path) -> dict[str, str]:
     """CLI environment on a copy of the store with the shipped measurements."""
-    dest = tmp_path / "shipped-cli-store"
-    shutil.copytree(shipped_template[0], dest, ignore=shutil.ignore_patterns("LOCK"))
-    env = dict(os.environ)
-    env.update(NFEX_STORE=str(dest), NFEX_HOME=str(REPO), NFEX_AUTHOR="test")
-    return env
+    return _cli_env(_copy_store(shipped_template[0], tmp_path / "shipped-cli-store"), REPO)
 
 
 @pytest.fixture
 def bare_kg(bare_template: tuple[Path, Settings], tmp_path: Path) -> Iterator[KnowledgeGraph]:
     """A fresh copy of the store without shipped measurements: tests that add their own measurements."""
-    dest = tmp_path / "bare-store"
-    shutil.copytree(bare_template[0], dest, ignore=shutil.ignore_patterns("LOCK"))
-    graph = KnowledgeGraph.open(str(dest), settings=bare_template[1], seed=False)
-    yield graph
-    graph.close()
+    yield from _open_copy(bare_template, tmp_path / "bare-store")
 
 
 @pytest.fixture
 def bare_cli_env(bare_template: tuple[Path, Settings], tmp_path: Path) -> dict[str, str]:
     """CLI environment on a copy of the store without shipped measurements (and no trained model)."""
-    dest = tmp_path / "bare-cli-store"
-    shutil.copytree(bare_template[0], dest, ignore=shutil.ignore_patterns("LOCK"))
-    env = dict(os.environ)
-    env.update(NFEX_STORE=str(dest), NFEX_HOME=str(bare_template[1].home), NFEX_AUTHOR="test", NFEX_NEURAL="symbolic")
-    return env
+    store = _copy_store(bare_template[0], tmp_path / "bare-cli-store")
+    return _cli_env(store, bare_template[1].home, NFEX_NEURAL="symbolic")
+
+
+def stop_process(proc: subprocess.Popen, timeout: float = 20) -> None:  # type: ignore[type-arg]
+    """Terminate ``proc``; kill it if it has not exited after ``timeout`` seconds."""
+    proc.terminate()
+    try:
+        proc.wait(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
 
 
 @pytest.fixture
@@ -165,11 +175,7 @@ def oxigraph_server(tmp_path: Path) -> Iterator[str]:
         wait_http(url + "/query?query=ASK%7B%7D", proc=proc)
         yield url
     finally:
-        proc.terminate()
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
+        stop_process(proc, timeout=10)
 
 
 @pytest.fixture(scope="session")
