@@ -18,6 +18,7 @@ import cv2
 import numpy as np
 
 from ..datasets.base import Intrinsics
+from ..datasets.camera import undistort_points
 from ..vision.features import Features
 
 
@@ -60,10 +61,6 @@ def match(prev: Features, cur: Features, ratio: float = 0.8) -> MatchResult:
 def undistort(xy: np.ndarray, intrinsics: Intrinsics) -> np.ndarray:
     """Pixel coordinates with lens distortion removed, for any lens model the loaders know
     (``datasets.camera``: OpenCV radial-tangential, the handheld set's radial model on pixels)."""
-    if not intrinsics.distortion or len(xy) == 0:
-        return xy.astype(np.float64)
-    from ..datasets.camera import undistort_points
-
     return undistort_points(intrinsics, xy).astype(np.float64)
 
 
