@@ -6,7 +6,7 @@ the rule engine) is written once, in SPARQL:
 - ``select``/``ask``/``construct`` return rdflib terms;
 - ``update`` runs one SPARQL 1.1 Update request, which both Oxigraph and SPARQL servers apply as one
   transaction (all or nothing);
-- ``query_raw`` returns a query's results serialised in a requested format, for the HTTP endpoint.
+- ``query_to`` writes a query's results, serialised in a requested format, to a sink (the HTTP endpoint).
 
 The embedded store is RocksDB underneath: a committed update survives a crash, and a process killed
 in the middle of an update leaves the last committed state (RocksDB's write-ahead log).
@@ -84,10 +84,6 @@ class Backend(ABC):
     def update(self, update: str) -> None: ...
 
     @abstractmethod
-    def query_raw(self, query: str, accept: str) -> tuple[bytes, str, str]:
-        """Run any query; return (body, media type, query form: select|ask|graph)."""
-
-    @abstractmethod
     def query_to(self, query: str, media: str, out: Sink, timeout_s: float | None = None) -> str:
         """Run any query and write its results as ``media`` to ``out`` while they are produced (the
         HTTP endpoint passes a writer that enforces its time and size limits); returns the media type
@@ -153,15 +149,6 @@ class EmbeddedBackend(Backend):
             self._store.update(update)
         except SyntaxError as e:
             raise ParseError(f"invalid SPARQL update: {e}") from e
-
-    def query_raw(self, query: str, accept: str) -> tuple[bytes, str, str]:
-        res = self._run(query)
-        if isinstance(res, ox.QueryTriples):
-            media = accept if accept in GRAPH_FORMATS else "text/turtle"
-            return res.serialize(format=GRAPH_FORMATS[media]) or b"", media, "graph"
-        media = accept if accept in RESULT_FORMATS else "application/sparql-results+json"
-        form = "ask" if isinstance(res, ox.QueryBoolean) else "select"
-        return res.serialize(format=RESULT_FORMATS[media]) or b"", media, form
 
     def query_to(self, query: str, media: str, out: Sink, timeout_s: float | None = None) -> str:
         res = self._run(query)
@@ -253,20 +240,6 @@ class RemoteBackend(Backend):
         except httpx.HTTPError as e:
             raise StoreUnavailable(f"cannot reach the SPARQL server at {self.update_url}: {e}") from e
         self._check(r, "update")
-
-    def query_raw(self, query: str, accept: str) -> tuple[bytes, str, str]:
-        wanted = accept if (accept in RESULT_FORMATS or accept in GRAPH_FORMATS) else (
-            "application/sparql-results+json, text/turtle;q=0.9"
-        )
-        r = self._post_query(query, wanted)
-        media = r.headers.get("content-type", "").split(";")[0].strip()
-        if media in GRAPH_FORMATS:
-            form = "graph"
-        elif media == "application/sparql-results+json" and b'"boolean"' in r.content[:200]:
-            form = "ask"
-        else:
-            form = "select"
-        return r.content, media, form
 
     def query_to(self, query: str, media: str, out: Sink, timeout_s: float | None = None) -> str:
         try:
