@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataMissing, ParseError
+from ..trajectory.ate import se3_inverse
 from .base import Intrinsics
 from .frames import ImageSequence, read_grey
 
@@ -52,11 +53,10 @@ def load_handheld(path: str | Path, sequence: str | None = None) -> ImageSequenc
     for p in paths:
         if not p.is_file():
             raise DataMissing(f"handheld image {p} does not exist (poses.txt has {len(paths)} lines)")
-    poses = np.tile(np.eye(4), (len(paths), 1, 1))
-    for i, row in enumerate(rows):
-        r = rodrigues(row[:3])
-        poses[i, :3, :3] = r.T
-        poses[i, :3, 3] = -r.T @ row[3:6]
+    world_to_cam = np.tile(np.eye(4), (len(paths), 1, 1))
+    world_to_cam[:, :3, :3] = [rodrigues(row[:3]) for row in rows]
+    world_to_cam[:, :3, 3] = rows[:, 3:6]
+    poses = se3_inverse(world_to_cam)
     h, w = read_grey(paths[0]).shape[:2]
     intr = Intrinsics(
         float(k[0, 0]), float(k[1, 1]), float(k[0, 2]), float(k[1, 2]), int(w), int(h),
