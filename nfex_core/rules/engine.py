@@ -4,7 +4,7 @@ The condition space is finite — each dimension takes one of its values or is u
 evaluates every SPARQL pruning rule once for all contexts (one query per rule, see pruning.py) and
 every DSL statement and context shape (shapes.py) for all contexts, and stores a ``Decision`` per context: the candidates, the pruned
 extractors with the rules that pruned them, the parameter factors f_kj, the metric weights h_x, the
-preference bonuses, the ``require`` constraints and context shapes in force, and the measured evidence per extractor. A
+preference bonuses, the context shapes in force (``require`` statements are compiled to them), and the measured evidence per extractor. A
 request then pays one dictionary lookup. ``compile_table`` runs again when the graph version changes.
 The same step fits the cost model (nfex_core/cost.py) and reads the budget terms, so a request's
 budget check (advisor/budget.py) costs arithmetic only.
@@ -73,7 +73,6 @@ class Decision:
     factors: Mapping[str, Mapping[str, Factor]]
     weights: Mapping[str, Factor]
     bonuses: Mapping[str, Factor]
-    requires: tuple[Statement, ...] = ()
     evidence: Mapping[str, Evidence] = field(default_factory=dict)
     shapes: tuple[CompiledShape, ...] = ()  # context shapes whose gate holds here (rules/shape_check.py)
 
@@ -173,7 +172,6 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
         factors: dict[str, dict[str, Factor]] = {}
         weights: dict[str, Factor] = {m: Factor(1.0) for m in vocab.metrics}
         bonuses: dict[str, Factor] = {}
-        requires: list[Statement] = []
         for s in statements:
             if not s.applies(context):
                 continue
@@ -189,8 +187,6 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
             elif s.kind == "prefer" and s.extractor and s.value is not None:
                 old = bonuses.get(s.extractor, Factor(0.0))
                 bonuses[s.extractor] = Factor(old.value + float(s.value), old.citations + (cite,))
-            elif s.kind == "require":
-                requires.append(s)
         in_force = tuple(sh for sh in shapes if sh.applies(context))
         for sh in in_force:  # a prohibition prunes here; bounds are checked per candidate Θ′
             if sh.bound is None:
@@ -209,7 +205,6 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
             factors=factors,
             weights=weights,
             bonuses=bonuses,
-            requires=tuple(requires),
             evidence={x: e for x, e in ev.items() if e.windows},
             shapes=in_force,
         )
