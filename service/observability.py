@@ -10,7 +10,8 @@ from typing import Any
 
 from prometheus_client import CollectorRegistry, Counter, Gauge, Histogram
 
-from nfex_core.errors import PROBLEM_BASE
+from .images import PayloadTooLarge
+from .problems import PROBLEM_JSON
 
 Scope = MutableMapping[str, Any]
 Message = MutableMapping[str, Any]
@@ -60,10 +61,6 @@ class Metrics:
         self.graph_version = Gauge("nfex_graph_version", "Graph version at head", registry=self.registry)
 
 
-def _problem_bytes(status: int, slug: str, title: str, detail: str, **extra: Any) -> bytes:
-    return json.dumps({"type": PROBLEM_BASE + slug, "title": title, "status": status, "detail": detail, **extra}).encode()
-
-
 class ServiceMiddleware:
     """Per request: refuse bodies over ``max_body_bytes`` (413), count and time it, log one JSON line."""
 
@@ -88,10 +85,10 @@ class ServiceMiddleware:
             await send(message)
 
         async def reject() -> None:
-            body = _problem_bytes(413, "payload-too-large", "Payload too large",
-                                  f"the request body exceeds the limit of {limit} bytes", limit=limit)
-            await send_wrapper({"type": "http.response.start", "status": 413,
-                                "headers": [(b"content-type", b"application/problem+json"), (b"content-length", str(len(body)).encode()),
+            too_large = PayloadTooLarge(f"the request body exceeds the limit of {limit} bytes", limit=limit)
+            body = json.dumps(too_large.problem()).encode()
+            await send_wrapper({"type": "http.response.start", "status": too_large.status,
+                                "headers": [(b"content-type", PROBLEM_JSON.encode()), (b"content-length", str(len(body)).encode()),
                                             (b"connection", b"close")]})
             await send({"type": "http.response.body", "body": body})
 
@@ -106,8 +103,6 @@ class ServiceMiddleware:
                 if message["type"] == "http.request":
                     seen["n"] += len(message.get("body", b""))
                     if seen["n"] > limit:
-                        from .images import PayloadTooLarge
-
                         raise PayloadTooLarge(f"the request body exceeds the limit of {limit} bytes", limit=limit)
                 return message
 
