@@ -43,9 +43,9 @@ and why. Reads are open; writes need `Authorization: Bearer <token>` with the ed
 def _warm(app: FastAPI) -> None:
     """Build the advisor's snapshot (vocabulary, compiled rule table) so /readyz means ready to answer."""
     try:
-        app.state.advisor.snapshot()
+        snap = app.state.advisor.snapshot()
         app.state.ready.set()
-        log.info("ready", extra={"fields": {"graph_version": app.state.advisor.snapshot().version}})
+        log.info("ready", extra={"fields": {"graph_version": snap.version}})
     except Exception as e:  # reported by /readyz
         app.state.warmup_error = f"{type(e).__name__}: {e}"
         log.exception("warm-up failed")
