@@ -30,7 +30,8 @@ def _files_graph(files: list[Path]):
     return g
 
 
-def _report(result, what: str) -> None:
+def report_commit(result, what: str) -> None:
+    """Print a commit's outcome: the new version and its triple counts, or that nothing changed."""
     if result.changed:
         typer.echo(f"version {result.version}: {what} (+{result.added} −{result.removed} triples)")
     else:
@@ -48,7 +49,7 @@ def add(
     g = _files_graph(files)
     kg = open_kg()
     msg = message or "add " + ", ".join(f.name for f in files)
-    _report(kg.add(g, author=author_of(author), message=msg, expected_version=expect_version), msg)
+    report_commit(kg.add(g, author=author_of(author), message=msg, expected_version=expect_version), msg)
 
 
 @app.command()
@@ -62,7 +63,7 @@ def remove(
     g = _files_graph(files)
     kg = open_kg()
     msg = message or "remove " + ", ".join(f.name for f in files)
-    _report(kg.remove(g, author=author_of(author), message=msg, expected_version=expect_version), msg)
+    report_commit(kg.remove(g, author=author_of(author), message=msg, expected_version=expect_version), msg)
 
 
 @app.command()
@@ -76,7 +77,7 @@ def update(
     from ..kg.sparql_query import with_prefixes
 
     kg = open_kg()
-    _report(kg.update(with_prefixes(update), author=author_of(author), message=message, expected_version=expect_version), "update")
+    report_commit(kg.update(with_prefixes(update), author=author_of(author), message=message, expected_version=expect_version), "update")
 
 
 @app.command()
@@ -121,7 +122,7 @@ def rollback(
 ) -> None:
     """Restore the graph to VERSION as a new version (history is kept)."""
     kg = open_kg()
-    _report(kg.rollback(version, author=author_of(author), expected_version=expect_version), f"rollback to version {version}")
+    report_commit(kg.rollback(version, author=author_of(author), expected_version=expect_version), f"rollback to version {version}")
 
 
 class ExportFormat(str, Enum):
@@ -152,7 +153,7 @@ def seed() -> None:
     from ..kg.seed import seed as do_seed
 
     kg = open_kg(seed=False)
-    _report(do_seed(kg), "seeded from ontology/ and rules/")
+    report_commit(do_seed(kg), "seeded from ontology/ and rules/")
 
 
 @app.command()

@@ -44,6 +44,7 @@ def apply(
 ) -> None:
     """Check FILE and replace that program's statements in the graph as one versioned transaction."""
     from ..rules.dsl import programs
+    from .kg import report_commit
 
     kg = open_kg()
     program, graph = programs.load(file, kg.vocabulary(), settings())
@@ -51,10 +52,7 @@ def apply(
         kg, graph, program.name, author=author_of(author), message=message or f"apply program {program.name} from {file.name}",
         expected_version=expect_version,
     )
-    if result.changed:
-        typer.echo(f"version {result.version}: program {program.name}, {len(program.statements)} statements (+{result.added} −{result.removed} triples)")
-    else:
-        typer.echo(f"no change; program {program.name} is already in the graph at version {result.version}")
+    report_commit(result, f"program {program.name}, {len(program.statements)} statements")
 
 
 @app.command()
