@@ -91,26 +91,20 @@ class ExtractorRegistry:
     def constructor_args(self, name: str, params: Mapping[str, Any] | None = None) -> dict[str, Value]:
         """The validated parameters the OpenCV constructor takes: grid settings and oversampling applied."""
         spec = self.spec(name)
-        full = self.resolve(name, params)
-        args = {k: v for k, v in full.items() if spec.parameters[k].grid_role is None}
-        grid = _grid_settings(spec, full)
-        if grid is not None:
-            nf = _nf_name(spec)
-            if nf is not None and int(args[nf]) > 0:
-                p = spec.parameters[nf]
-                args[nf] = p.clamp(float(args[nf]) * grid[1])
-        return args
+        return _constructor_args(spec, spec.resolve(params))
 
     def create(self, name: str, params: Mapping[str, Any] | None = None) -> Any:
         """A (thread-local, cached) OpenCV detector for ``name`` with ``params``."""
-        full = self.constructor_args(name, params)
-        key = (name, tuple(sorted(full.items())))
+        return self._detector(self.spec(name), self.constructor_args(name, params))
+
+    def _detector(self, spec: ExtractorSpec, args: dict[str, Value]) -> Any:
+        key = (spec.name, tuple(sorted(args.items())))
         cache: OrderedDict[tuple[Any, ...], Any] | None = getattr(self._local, "cache", None)
         if cache is None:
             cache = self._local.cache = OrderedDict()
         detector = cache.get(key)
         if detector is None:
-            detector = resolve_constructor(self.spec(name).constructor)(**full)
+            detector = resolve_constructor(spec.constructor)(**args)
             cache[key] = detector
             if len(cache) > CACHE_SIZE:
                 cache.popitem(last=False)
@@ -128,10 +122,11 @@ class ExtractorRegistry:
     ) -> Features:
         """Detect keypoints and compute descriptors on ``image`` (grey or colour)."""
         spec = self.spec(name)
-        detector = self.create(name, params)
-        norm, norm_name = self.norm(name, params)
+        full = spec.resolve(params)  # once per frame: the detector, its norm and the grid all read it
+        detector = self._detector(spec, _constructor_args(spec, full))
+        norm_name = spec.norm_for(full)
+        norm = int(getattr(cv2, norm_name))
         grey = as_grey_u8(image)
-        full = self.resolve(name, params)
         grid = _grid_settings(spec, full)
         t0 = time.perf_counter()
         if grid is None:
@@ -157,6 +152,17 @@ class ExtractorRegistry:
             image_shape=(int(grey.shape[0]), int(grey.shape[1])),
             elapsed_ms=elapsed,
         )
+
+
+def _constructor_args(spec: ExtractorSpec, full: Mapping[str, Value]) -> dict[str, Value]:
+    args = {k: v for k, v in full.items() if spec.parameters[k].grid_role is None}
+    grid = _grid_settings(spec, full)
+    if grid is not None:
+        nf = _nf_name(spec)
+        if nf is not None and int(args[nf]) > 0:
+            p = spec.parameters[nf]
+            args[nf] = p.clamp(float(args[nf]) * grid[1])
+    return args
 
 
 def _nf_name(spec: ExtractorSpec) -> str | None:
