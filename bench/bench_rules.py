@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import random
-import statistics
 import sys
 import tempfile
 import time
@@ -27,22 +26,12 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _graphs import bulk  # noqa: E402
+from _timing import per_call_us  # noqa: E402
 
 from nfex_core.advisor import Advisor  # noqa: E402
 from nfex_core.kg import KnowledgeGraph  # noqa: E402
 from nfex_core.rules import pruning  # noqa: E402
 from nfex_core.rules.engine import RuleEngine  # noqa: E402
-
-
-def _per_call_us(fn, items, repeat: int = 3) -> float:  # type: ignore[no-untyped-def]
-    """Median over ``repeat`` passes of the mean time per call of fn(item) over ``items``, in µs."""
-    runs = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        for it in items:
-            fn(it)
-        runs.append((time.perf_counter() - t) / len(items) * 1e6)
-    return statistics.median(runs)
 
 
 def main() -> None:
@@ -68,10 +57,10 @@ def main() -> None:
     print(f"graph: {kg.triple_count()} triples, {len(rules)} SPARQL pruning rules, {len(table.statements)} DSL statements, "
           f"{len(table.decisions)} contexts; compile {compile_ms:.0f} ms (once per graph version)")
 
-    decide_us = _per_call_us(table.decide, requests)
+    decide_us = per_call_us(table.decide, requests)
     advisor = Advisor(kg, poll_interval_s=3600)
     advisor.select({})
-    select_us = _per_call_us(lambda c: advisor.select({k: v for k, v in c.items() if v is not None}), requests[: max(1, args.requests // 10)])
+    select_us = per_call_us(lambda c: advisor.select({k: v for k, v in c.items() if v is not None}), requests[: max(1, args.requests // 10)])
 
     data = kg.data_graph()
     sample = requests[: args.sparql_requests]
@@ -109,9 +98,9 @@ def main() -> None:
         got = {vocab.by_iri[r["extractor"]].name for r in oxigraph(ctx)}  # type: ignore[attr-defined]
         assert got == want, (ctx, got, want)
 
-    parsed_us = _per_call_us(rdflib_parsed, sample, repeat=1)
-    prepared_us = _per_call_us(rdflib_prepared, sample, repeat=1)
-    oxi_us = _per_call_us(oxigraph, sample, repeat=1)
+    parsed_us = per_call_us(rdflib_parsed, sample, repeat=1)
+    prepared_us = per_call_us(rdflib_prepared, sample, repeat=1)
+    oxi_us = per_call_us(oxigraph, sample, repeat=1)
     print(f"compiled RuleTable.decide:                {decide_us:12.2f} µs/request  (mean of {len(requests)})")
     print(f"compiled Advisor.select (context only):   {select_us:12.2f} µs/request  (mean of {max(1, args.requests // 10)})")
     print(f"rdflib, pruning SPARQL parsed per request:{parsed_us:12.0f} µs/request  (mean of {len(sample)})")

@@ -12,12 +12,12 @@ import argparse
 import statistics
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _graphs import bulk, change_of_about  # noqa: E402
+from _timing import call_ms  # noqa: E402
 
 from nfex_core.kg import KnowledgeGraph  # noqa: E402
 from nfex_core.kg.validation import validate_graph  # noqa: E402
@@ -41,21 +41,13 @@ def main() -> None:
     change = change_of_about(args.change, n_configs)
     print(f"graph: {total} triples; change: {len(change)} triples (new measurements)")
 
-    inc = []
-    for _ in range(args.repeat):
-        t = time.perf_counter()
-        report = kg.check(change)
-        inc.append(time.perf_counter() - t)
+    report, inc = call_ms(lambda: kg.check(change), args.repeat)
     assert report.conforms, report.text
     data, shapes = kg.data_graph(), kg.shapes()
     candidate = data + change.as_graph("added")
-    whole = []
-    for _ in range(max(1, args.repeat // 2)):
-        t = time.perf_counter()
-        full = validate_graph(candidate, shapes)
-        whole.append(time.perf_counter() - t)
+    full, whole = call_ms(lambda: validate_graph(candidate, shapes), max(1, args.repeat // 2))
     assert full.conforms, full.text
-    i_ms, w_ms = statistics.median(inc) * 1000, statistics.median(whole) * 1000
+    i_ms, w_ms = statistics.median(inc), statistics.median(whole)
     print(f"incremental (nodes the change touches): {i_ms:9.1f} ms  (median of {len(inc)}; {report.data_triples} triples checked)")
     print(f"whole graph:                            {w_ms:9.1f} ms  (median of {len(whole)})")
     print(f"ratio whole / incremental:              {w_ms / i_ms:9.1f}x")
