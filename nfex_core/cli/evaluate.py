@@ -8,10 +8,7 @@ import typer
 
 from ..errors import BadInput
 from .common import echo_json, open_kg
-
-
-def _split(values: list[str]) -> list[str]:
-    return [v.strip() for item in values for v in item.split(",") if v.strip()]
+from .sweep import split_values
 
 
 def evaluate(
@@ -37,7 +34,7 @@ def evaluate(
     from ..evaluation import METHODS, as_json, csv_text, markdown
     from ..evaluation import evaluate as run_evaluation
 
-    chosen = _split(methods) or list(METHODS)
+    chosen = list(split_values(methods)) or list(METHODS)
     for m in chosen:
         if m not in METHODS:
             raise BadInput(f"unknown method {m!r}; known: {', '.join(METHODS)}")
@@ -52,7 +49,7 @@ def evaluate(
         raise BadInput(f"{path}: the sequence has no ground truth; ATE needs it")
     kg = open_kg()
     try:
-        ev = run_evaluation(seq, kg, methods=chosen, runs=runs, corruptions=_split(corruption) or ["none"],
+        ev = run_evaluation(seq, kg, methods=chosen, runs=runs, corruptions=list(split_values(corruption)) or ["none"],
                             severity=severity, budgets=budget_ms, frames=frames, progress=progress and not json_out)
     finally:
         kg.close()

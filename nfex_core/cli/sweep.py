@@ -19,7 +19,8 @@ class Executor(StrEnum):
     ray = "ray"
 
 
-def _split(values: list[str]) -> tuple[str, ...]:
+def split_values(values: list[str]) -> tuple[str, ...]:
+    """Repeated options that may also be comma-separated: ``-x ORB,SIFT -x AKAZE`` → (ORB, SIFT, AKAZE)."""
     return tuple(v.strip() for item in values for v in item.split(",") if v.strip())
 
 
@@ -52,8 +53,8 @@ def sweep(
     if not path.is_dir():
         raise BadInput(f"{path}: not a folder")
     spec = SweepSpec(
-        path=str(path), format=format, sequences=_split(sequence) or ("",), extractors=_split(extractors) or ("ORB", "SIFT"),
-        window=window, stride=stride, max_windows=max_windows, corruptions=_split(corruptions) or ("none",),
+        path=str(path), format=format, sequences=split_values(sequence) or ("",), extractors=split_values(extractors) or ("ORB", "SIFT"),
+        window=window, stride=stride, max_windows=max_windows, corruptions=split_values(corruptions) or ("none",),
         severity=severity, seed=seed, sample=sample,
     )
     if window < 2 or stride < 1:
