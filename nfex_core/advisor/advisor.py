@@ -32,7 +32,7 @@ from ..kg.vocab import ExtractorSpec, Value, Vocabulary
 from ..neural.serve import ModelHolder, NeuralStep, frame_stats
 from ..rules.engine import Citation, Decision, RuleEngine, RuleTable
 from ..rules.shape_check import enforce
-from .budget import Budget, BudgetOutcome, apply_budget, cheapest, resolve_budget
+from .budget import Budget, BudgetOutcome, resolve_budget, settle
 from .selection import CandidateScore, ContextEntry, PrunedCandidate, Selection
 
 if TYPE_CHECKING:
@@ -259,40 +259,12 @@ class Advisor:
             admit(x)
         if budget is None:
             return theta, adjustments, None, cut
-        table = snap.table
-        terms = table.budget_terms
+        terms = snap.table.budget_terms
         # what a relative-accuracy rule pruned is re-judged against the best *affordable* extractor
         relative = [x for x, cs in decision.pruned.items() if cs and all(c.rule in terms.relative_rules for c in cs)]
         relative = [x for x in relative if admit(x)]
-        outcome = apply_budget(table.cost, terms, snap.vocab.extractors, theta, budget)
-        pool = dict(theta)  # the fallback may also take what was pruned relative to an unaffordable best
         ates = {x: e.mean_ate for x, e in decision.evidence.items() if e.mean_ate}
-        best = min((ates[x] for x in outcome.params if x in ates), default=None)
-        for x in relative:
-            ok = x in outcome.params and x in ates and best is not None and terms.max_relative_ate is not None
-            if ok and ates[x] <= terms.max_relative_ate * best and best > min(ates.values()):  # type: ignore[operator]
-                outcome.readmitted[x] = (
-                    f"re-admitted: mean ATE {ates[x]:.3g} m is within {terms.max_relative_ate:g}x the best affordable "
-                    f"extractor's {best:.3g} m; the more accurate ones are over the budget"
-                )
-                outcome.warnings.append(f"{x}: {outcome.readmitted[x]}")
-                continue
-            for d in (outcome.params, outcome.estimates, outcome.adjustments, outcome.pruned):
-                d.pop(x, None)
-            theta.pop(x)
-        if not outcome.params and pool:
-            x, params, adj, e = cheapest(table.cost, terms, snap.vocab.extractors, pool, budget)
-            if x in relative:
-                outcome.readmitted[x] = "re-admitted as the cheapest extractor: nothing fits the budget"
-            theta[x] = pool[x]
-            outcome.pruned.pop(x, None)
-            outcome.params[x] = params
-            outcome.adjustments[x] = adj
-            outcome.estimates[x] = e
-            outcome.warnings.append(
-                f"every candidate's expected extraction time exceeds the budget {budget.ms:g} ms; running the cheapest, "
-                f"{x} at {e.describe()}"
-            )
+        outcome = settle(snap.table.cost, terms, snap.vocab.extractors, ates, theta, relative, budget)
         for x, adj in outcome.adjustments.items():
             adjustments[x] = [*adjustments[x], *adj]
         return {x: outcome.params[x] for x in theta if x in outcome.params}, adjustments, outcome, cut

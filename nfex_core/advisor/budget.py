@@ -23,7 +23,7 @@ and the selection warns.
 """
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -166,6 +166,47 @@ def apply_budget(
             continue
         out.pruned[x] = (citation(terms, BUDGET_RULE, f"expected {e.describe()} exceeds {allowed}"),)
     return out
+
+
+def settle(
+    cost: CostModel,
+    terms: BudgetTerms,
+    specs: Mapping[str, ExtractorSpec],
+    ates: Mapping[str, float],
+    theta: Mapping[str, dict[str, Value]],
+    relative: Sequence[str],
+    b: Budget,
+) -> BudgetOutcome:
+    """The budget over every admitted candidate ``theta`` (the ``relative`` ones among them were pruned by a
+    relative-accuracy rule): fit or prune each, re-admit a relative one that is affordable and within k× the
+    best affordable mean ATE (``ates``), drop the other relative ones, and when nothing is left fall back to
+    the cheapest of ``theta``. The survivors are the outcome's ``params``."""
+    outcome = apply_budget(cost, terms, specs, theta, b)
+    best = min((ates[x] for x in outcome.params if x in ates), default=None)
+    for x in relative:
+        ok = x in outcome.params and x in ates and best is not None and terms.max_relative_ate is not None
+        if ok and ates[x] <= terms.max_relative_ate * best and best > min(ates.values()):  # type: ignore[operator]
+            outcome.readmitted[x] = (
+                f"re-admitted: mean ATE {ates[x]:.3g} m is within {terms.max_relative_ate:g}x the best affordable "
+                f"extractor's {best:.3g} m; the more accurate ones are over the budget"
+            )
+            outcome.warnings.append(f"{x}: {outcome.readmitted[x]}")
+            continue
+        for d in (outcome.params, outcome.estimates, outcome.adjustments, outcome.pruned):
+            d.pop(x, None)
+    if not outcome.params and theta:  # the fallback may also take what was pruned relative to an unaffordable best
+        x, params, adj, e = cheapest(cost, terms, specs, theta, b)
+        if x in relative:
+            outcome.readmitted[x] = "re-admitted as the cheapest extractor: nothing fits the budget"
+        outcome.pruned.pop(x, None)
+        outcome.params[x] = params
+        outcome.adjustments[x] = adj
+        outcome.estimates[x] = e
+        outcome.warnings.append(
+            f"every candidate's expected extraction time exceeds the budget {b.ms:g} ms; running the cheapest, "
+            f"{x} at {e.describe()}"
+        )
+    return outcome
 
 
 def cheapest(
