@@ -1,4 +1,5 @@
-"""SHACL validation of a 50-triple change on a ~20,000-triple graph: incremental against whole-graph.
+"""SHACL validation of a 50-triple change on a graph of at least --triples triples (the seed alone is ~24.7k):
+incremental against whole-graph.
 
     python bench/bench_shacl_incremental.py [--triples 20000] [--change 50] [--repeat 5]
 
