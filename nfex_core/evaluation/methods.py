@@ -12,7 +12,6 @@ parameters, ORB and SIFT with "dynamically optimised" parameters, and nFEX.
 """
 from __future__ import annotations
 
-import inspect
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -79,10 +78,7 @@ class AdvisorChooser:
         if self._last is not None and frame.index % self.every:
             return self._last
         ctx = {**self.context, **frame.context}
-        kwargs: dict[str, Any] = {}
-        if self.budget_ms is not None and "budget_ms" in inspect.signature(self.advisor.select).parameters:
-            kwargs["budget_ms"] = self.budget_ms
-        sel = self.advisor.select(ctx, frame.image, self._state, **kwargs)
+        sel = self.advisor.select(ctx, frame.image, self._state, budget_ms=self.budget_ms)
         self._state = sel.state
         self._last = Choice(sel.extractor, dict(sel.params))
         self.selections.append({"frame": frame.index, "extractor": sel.extractor, "params": sel.params,
