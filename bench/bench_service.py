@@ -13,6 +13,7 @@ ratio). Logs at warning level (one JSON access line per request at info costs ~0
 from __future__ import annotations
 
 import argparse
+import functools
 import os
 import shutil
 import statistics
@@ -30,6 +31,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "bench"))
+
+from _timing import call_ms  # noqa: E402
 
 from nfex_core.advisor import Advisor  # noqa: E402
 from nfex_core.config import Settings  # noqa: E402
@@ -141,18 +145,10 @@ def main() -> None:
     kg.backend.flush()  # type: ignore[attr-defined]
     advisor = Advisor(kg)
     advisor.select(CONTEXT)
-    in_process = []
-    for _ in range(args.n):
-        t = time.perf_counter()
-        advisor.select(CONTEXT)
-        in_process.append((time.perf_counter() - t) * 1000)
+    _, in_process = call_ms(functools.partial(advisor.select, CONTEXT), args.n)
     image = load_frame()
     advisor.select({"agent": "drone"}, image)
-    frame_in_process = []
-    for _ in range(max(5, args.frames // 10)):
-        t = time.perf_counter()
-        advisor.select({"agent": "drone"}, image)
-        frame_in_process.append((time.perf_counter() - t) * 1000)
+    _, frame_in_process = call_ms(functools.partial(advisor.select, {"agent": "drone"}, image), max(5, args.frames // 10))
     kg.close()
     del kg, advisor
     shutil.copytree(store, work / "oxigraph", ignore=shutil.ignore_patterns("LOCK"))
