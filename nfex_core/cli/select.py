@@ -2,12 +2,15 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
 from ..errors import BadInput, DataMissing
 from .common import echo_json, open_kg, table
+
+if TYPE_CHECKING:
+    from ..advisor import Selection
 
 
 def parse_context(text: str) -> dict[str, str]:
@@ -36,7 +39,7 @@ def _because(citations: Any) -> str:
     return "; ".join(f"{c.label} [{c.rule.rsplit('#', 1)[-1]}]" for c in citations)
 
 
-def render(sel: Any) -> str:
+def render(sel: Selection) -> str:
     """The selection as text: choice, parameters with their reasons, context, candidates, pruned."""
     lines = [f"{sel.extractor}  ({sel.constructor}, {sel.norm}; mode {sel.mode}; graph version {sel.versions['graph']})", "", "parameters:"]
     best = next(c for c in sel.candidates if c.extractor == sel.extractor)
@@ -64,13 +67,13 @@ def render(sel: Any) -> str:
             for c in p.because:
                 src = f" [{c.source}]" if c.source else ""
                 lines.append(f"  {p.extractor}: {c.reason} — rule {c.rule} \"{c.label}\"{src}")
-    budget = getattr(sel, "budget", None)
+    budget = sel.budget
     if budget:
         lines += ["", f"budget: {budget['ms']:g} ms per frame ({budget['source']}; compute {budget['compute']} ×{budget['factor']:g}; "
                       f"{budget['width']}×{budget['height']}, {budget['size_source']})"]
         lines += [f"  expected {c.extractor}: {c.evidence['expected_ms']} ms ({c.evidence.get('cost_source')})"
                   for c in sel.candidates if c.evidence.get("expected_ms") is not None]
-    for w in getattr(sel, "warnings", ()):
+    for w in sel.warnings:
         lines.append(f"warning: {w}")
     return "\n".join(lines)
 
