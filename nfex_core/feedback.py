@@ -74,15 +74,7 @@ def configuration_graph(vocab: Vocabulary, extractor: str, params: dict[str, Any
     theta = spec.resolve(params)
     cfg = configuration_iri(spec.name, theta)
     g = rdflib.Graph()
-    g.add((cfg, RDF.type, NFEX.Configuration))
-    g.add((cfg, NFEX.ofExtractor, spec.iri))
-    for name, value in sorted(theta.items()):
-        p = spec.parameter(name)
-        setting = URIRef(f"{cfg}_{slug(name)}")
-        g.add((cfg, NFEX.hasSetting, setting))
-        g.add((setting, RDF.type, NFEX.ParameterSetting))
-        g.add((setting, NFEX.parameter, p.iri))
-        g.add((setting, NFEX.value, p.literal(value)))
+    records.configuration_triples(g, cfg, spec, theta)
     return g, cfg
 
 
@@ -105,17 +97,10 @@ def measurement_graph(vocab: Vocabulary, fb: Feedback, *, run_exists: bool = Fal
 
     g, cfg = configuration_graph(vocab, fb.extractor, fb.params)
     m = NFEX[f"measurement_{uuid.uuid4().hex}"]
-    seq = NFEX[f"sequence_{slug(fb.sequence)}"]
+    seq = records.sequence_triples(g, fb.dataset, fb.sequence)  # the sweeps' node for the same sequence
     agent = NFEX[f"client_{slug(fb.client or 'anonymous')}"]
     run = run_iri(fb, now)
 
-    g.add((seq, RDF.type, NFEX.Sequence))
-    g.add((seq, RDFS.label, Literal(fb.sequence)))
-    if fb.dataset:
-        ds = NFEX[f"dataset_{slug(fb.dataset)}"]
-        g.add((ds, RDF.type, NFEX.Dataset))
-        g.add((ds, RDFS.label, Literal(fb.dataset)))
-        g.add((seq, NFEX.inDataset, ds))
     g.add((agent, RDF.type, PROV.SoftwareAgent))
     g.add((agent, RDFS.label, Literal(fb.client or "anonymous client")))
     if not run_exists:

@@ -26,7 +26,7 @@ from rdflib.namespace import PROV, RDF, RDFS, SOSA, XSD
 from rdflib.term import Literal, URIRef
 
 from ..config import REPO_ROOT
-from ..kg.vocab import Vocabulary
+from ..kg.vocab import ExtractorSpec, Vocabulary
 from ..namespaces import NFEX
 from .cells import DIMENSIONS
 
@@ -109,6 +109,41 @@ def _int(v: Any) -> Literal:
     return Literal(int(float(v)), datatype=XSD.integer)
 
 
+def configuration_triples(g: rdflib.Graph, cfg: URIRef, spec: ExtractorSpec, params: Mapping[str, Any]) -> None:
+    """A Configuration (α, Θ) with one ParameterSetting per parameter, each value typed by the graph.
+
+    Sweeps and client feedback (nfex_core.feedback) both write configurations through this, under
+    ``configuration_iri``, so one (α, Θ) is one node whoever measured it."""
+    g.add((cfg, RDF.type, NFEX.Configuration))
+    g.add((cfg, RDFS.label, Literal(f"{spec.name} " + " ".join(f"{k}={v}" for k, v in sorted(params.items())))))
+    g.add((cfg, NFEX.ofExtractor, spec.iri))
+    for name, value in sorted(params.items()):
+        p = spec.parameter(name)
+        s = URIRef(f"{cfg}_{_slug(name)}")
+        g.add((cfg, NFEX.hasSetting, s))
+        g.add((s, RDF.type, NFEX.ParameterSetting))
+        g.add((s, NFEX.parameter, p.iri))
+        g.add((s, NFEX.value, p.literal(p.coerce(value))))
+
+
+def sequence_triples(g: rdflib.Graph, dataset: str | None, sequence: str) -> URIRef:
+    """The Sequence node (and its Dataset): ``sequence_<dataset>_<sequence>`` labelled "<dataset> <sequence>",
+    the label `nfex evaluate` matches to hold a sequence out; without a dataset, ``sequence_<sequence>``."""
+    if dataset is None:
+        seq = NFEX[f"sequence_{_slug(sequence)}"]
+        g.add((seq, RDF.type, NFEX.Sequence))
+        g.add((seq, RDFS.label, Literal(sequence)))
+        return seq
+    ds = NFEX[f"dataset_{_slug(dataset)}"]
+    seq = NFEX[f"sequence_{_slug(dataset)}_{_slug(sequence)}"]
+    g.add((ds, RDF.type, NFEX.Dataset))
+    g.add((ds, RDFS.label, Literal(dataset)))
+    g.add((seq, RDF.type, NFEX.Sequence))
+    g.add((seq, RDFS.label, Literal(f"{dataset} {sequence}")))
+    g.add((seq, NFEX.inDataset, ds))
+    return seq
+
+
 def measurement_graph(rows: Iterable[Mapping[str, Any]], vocab: Vocabulary, run: RunInfo) -> rdflib.Graph:
     """The triples for ``rows`` (training-table rows, CSV strings or Python values) and their run."""
     g = rdflib.Graph()
@@ -117,23 +152,8 @@ def measurement_graph(rows: Iterable[Mapping[str, Any]], vocab: Vocabulary, run:
         spec = vocab.extractor(str(r["extractor"]))
         params = json.loads(str(r["params"]))
         cfg = configuration_iri(spec.name, str(r["params"]))
-        g.add((cfg, RDF.type, NFEX.Configuration))
-        g.add((cfg, RDFS.label, Literal(f"{spec.name} " + " ".join(f"{k}={v}" for k, v in sorted(params.items())))))
-        g.add((cfg, NFEX.ofExtractor, spec.iri))
-        for name, value in sorted(params.items()):
-            p = spec.parameter(name)
-            s = URIRef(f"{cfg}_{_slug(name)}")
-            g.add((cfg, NFEX.hasSetting, s))
-            g.add((s, RDF.type, NFEX.ParameterSetting))
-            g.add((s, NFEX.parameter, p.iri))
-            g.add((s, NFEX.value, p.literal(p.coerce(value))))
-        dataset = NFEX[f"dataset_{_slug(str(r['dataset']))}"]
-        seq = NFEX[f"sequence_{_slug(str(r['dataset']))}_{_slug(str(r['sequence']))}"]
-        g.add((dataset, RDF.type, NFEX.Dataset))
-        g.add((dataset, RDFS.label, Literal(str(r["dataset"]))))
-        g.add((seq, RDF.type, NFEX.Sequence))
-        g.add((seq, RDFS.label, Literal(f"{r['dataset']} {r['sequence']}")))
-        g.add((seq, NFEX.inDataset, dataset))
+        configuration_triples(g, cfg, spec, params)
+        seq = sequence_triples(g, str(r["dataset"]), str(r["sequence"]))
         m = measurement_iri(str(r["cell"]))
         g.add((m, RDF.type, NFEX.Measurement))
         g.add((m, SOSA.usedProcedure, cfg))

@@ -91,3 +91,26 @@ def test_feedback_and_sweeps_name_one_configuration_alike(kg) -> None:  # type: 
     g, m = measurement_graph(vocab, Feedback(extractor="ORB", params={"nfeatures": 1500}, ate_rmse=1.0))
     assert set(g.objects(m, SOSA.usedProcedure)) == swept and len(swept) == 1
     assert next(iter(swept)).startswith(str(NFEX["cfg_ORB_"]))
+
+
+def test_feedback_and_a_sweep_on_one_sequence_share_its_node(kg) -> None:  # type: ignore[no-untyped-def]
+    """Regression: feedback named its sequence ``sequence_<seq>`` labelled "<seq>", the sweeps
+    ``sequence_<dataset>_<seq>`` labelled "<dataset> <seq>", so `nfex evaluate` could not hold a sequence
+    out of feedback measurements and the two never counted together."""
+    from rdflib.namespace import RDFS
+
+    from nfex_core.feedback import Feedback, measurement_graph
+    from nfex_core.namespaces import NFEX
+    from nfex_core.sweeps.records import RunInfo
+    from nfex_core.sweeps.records import measurement_graph as sweep_graph
+
+    vocab = kg.vocabulary()
+    theta = vocab.extractor("ORB").resolve({})
+    row = {"dataset": "kitti", "sequence": "01", "corruption": "none", "severity": 0.0, "window_start": 0, "window_end": 10,
+           "frames": 10, "extractor": "ORB", "params": json.dumps(theta, sort_keys=True, separators=(",", ":")),
+           "ate_rmse": 1.0, "rpe_rmse": 0.1, "tracking_lost": 0, "failed": 0, "width": 1241, "height": 376, "cell": "y"}
+    swept = set(sweep_graph([row], vocab, RunInfo(command="test")).objects(None, NFEX.sequence))
+    g, m = measurement_graph(vocab, Feedback(extractor="ORB", params={}, ate_rmse=1.0, dataset="kitti", sequence="01"))
+    assert set(g.objects(m, NFEX.sequence)) == swept and len(swept) == 1
+    [seq] = swept
+    assert str(g.value(seq, RDFS.label)) == "kitti 01" and g.value(seq, NFEX.inDataset) == NFEX["dataset_kitti"]
