@@ -14,7 +14,7 @@ from pathlib import Path
 import httpx
 import pytest
 
-from tests.conftest import free_port, wait_http
+from tests.conftest import free_port, stop_process, wait_http
 
 EDITOR = "editor-secret-1"
 READER = "reader-secret-2"
@@ -62,14 +62,6 @@ def start_service(store: str, log: Path, extra_env: dict[str, str] | None = None
     return Service(url, log, proc)
 
 
-def stop(proc: subprocess.Popen) -> None:  # type: ignore[type-arg]
-    proc.terminate()
-    try:
-        proc.wait(timeout=20)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-
-
 @pytest.fixture(scope="session")
 def service(seeded_template: Path, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Service]:
     """The service over a copy of the seeded embedded store (shared by the session: tests that write
@@ -79,7 +71,7 @@ def service(seeded_template: Path, tmp_path_factory: pytest.TempPathFactory) -> 
     shutil.copytree(seeded_template, store, ignore=shutil.ignore_patterns("LOCK"))
     svc = start_service(str(store), folder / "service.log")
     yield svc
-    stop(svc.proc)
+    stop_process(svc.proc)
 
 
 @pytest.fixture(scope="session")
@@ -95,7 +87,7 @@ def oxigraph_url(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     url = f"http://127.0.0.1:{port}"
     wait_http(url + "/query?query=ASK%7B%7D", proc=proc)
     yield url
-    stop(proc)
+    stop_process(proc)
 
 
 @pytest.fixture(scope="session")
@@ -104,7 +96,7 @@ def remote_service(oxigraph_url: str, tmp_path_factory: pytest.TempPathFactory) 
     folder = tmp_path_factory.mktemp("remote-service")
     svc = start_service(oxigraph_url, folder / "service.log")
     yield svc
-    stop(svc.proc)
+    stop_process(svc.proc)
 
 
 @pytest.fixture(scope="session")
@@ -113,7 +105,7 @@ def remote_replica(remote_service: Service, oxigraph_url: str, tmp_path_factory:
     folder = tmp_path_factory.mktemp("remote-replica")
     svc = start_service(oxigraph_url, folder / "service.log")
     yield svc
-    stop(svc.proc)
+    stop_process(svc.proc)
 
 
 def assert_problem(r: httpx.Response, status: int, slug: str | None = None) -> dict:  # type: ignore[type-arg]
