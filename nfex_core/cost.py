@@ -29,8 +29,8 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from rdflib.term import Literal
 
+from .kg.terms import py
 from .kg.vocab import ExtractorSpec, Value
 
 if TYPE_CHECKING:
@@ -169,11 +169,11 @@ class BudgetTerms:
     @classmethod
     def load(cls, kg: KnowledgeGraph) -> BudgetTerms:
         agents = {
-            str(r["tok"]): float(_val(r["ms"]))
+            str(r["tok"]): float(py(r["ms"]))
             for r in kg.select("SELECT ?tok ?ms WHERE { ?v a nfex:ConditionValue ; nfex:token ?tok ; nfex:defaultBudgetMs ?ms }").rows
         }
         compute = {
-            str(r["tok"]): float(_val(r["f"]))
+            str(r["tok"]): float(py(r["f"]))
             for r in kg.select("SELECT ?tok ?f WHERE { ?c a nfex:ComputeClass ; nfex:token ?tok ; nfex:costFactor ?f }").rows
         }
         labels = {
@@ -182,12 +182,7 @@ class BudgetTerms:
         }
         relative = frozenset(str(r["r"]) for r in kg.select("SELECT ?r WHERE { ?r nfex:relativeToBest true }").rows)
         factor = kg.select("SELECT ?v WHERE { nfex:maxRelativeAte nfex:value ?v }").rows
-        return cls(agents, compute, labels, relative, float(_val(factor[0]["v"])) if factor else None)
-
-
-def _val(term: object) -> Any:
-    """A SPARQL result term as a Python value."""
-    return term.toPython() if isinstance(term, Literal) else term
+        return cls(agents, compute, labels, relative, float(py(factor[0]["v"])) if factor else None)
 
 
 def _role(spec: ExtractorSpec, role: str) -> str | None:
@@ -242,7 +237,7 @@ def fit_cost_model(kg: KnowledgeGraph, extractors: Mapping[str, ExtractorSpec]) 
     """The cost model for the graph's current Measurements (two SPARQL queries, then least squares)."""
     settings: dict[str, dict[str, Value]] = {}
     for r in kg.select(MEASURED_SETTINGS).rows:
-        settings.setdefault(str(r["cfg"]), {})[str(r["name"])] = _val(r["v"])
+        settings.setdefault(str(r["cfg"]), {})[str(r["name"])] = py(r["v"])
     model = CostModel()
     per_x: dict[str, list[tuple[dict[str, Value], int, float, int]]] = {}
     sizes: dict[tuple[int, int], int] = {}
@@ -252,8 +247,8 @@ def fit_cost_model(kg: KnowledgeGraph, extractors: Mapping[str, ExtractorSpec]) 
         spec = extractors.get(x)
         if spec is None:
             continue
-        w, h = int(_val(r["w"])), int(_val(r["h"]))
-        mean, n = float(_val(r["mean"])), int(_val(r["n"]))
+        w, h = int(py(r["w"])), int(py(r["h"]))
+        mean, n = float(py(r["mean"])), int(py(r["n"]))
         if w <= 0 or h <= 0 or mean <= 0:
             continue
         try:

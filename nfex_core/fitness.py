@@ -59,7 +59,7 @@ def adjust_params(
     for name, p in spec.parameters.items():
         if not p.tunable or p.datatype == "boolean":
             continue
-        w, cites = 1.0, ()
+        w, cites = 1.0, tuple[Citation, ...]()
         if name in factors:
             w, cites = factors[name].value, factors[name].citations
         if pixels and p.scales_with_resolution:

@@ -2,11 +2,13 @@
 
     frame + context ─► conditions: fill unknown dimensions from the frame (vision.context)
                     ─► symbolic: candidates C(E) with the rules that pruned the others (rules.engine)
-                    ─► params: Θ′ per candidate = g(Θ, E) or ParamNet(E, s), clamped to the graph's ranges,
-                               repaired or pruned by the context shapes in force (rules.shape_check)
+                    ─► params: Θ′ per candidate = the best configuration measured under E (measured), else
+                               ParamNet(E, s), else g(Θ, E); clamped to the graph's ranges, then repaired or
+                               pruned by the context shapes in force (rules.shape_check)
                     ─► budget: expected cost per candidate at the frame's size; fit Θ′ or prune (budget)
-                    ─► selection: α* = argmax over C(E) of F_metrics on the frame (fitness, vision),
-                                  or of SelectorNet's probabilities masked to C(E) (neural.serve)
+                    ─► selection: α* = argmax over C(E) of F_metrics on the frame (fitness, vision) plus the
+                                  measured accuracy (below), or of SelectorNet's probabilities masked to
+                                  C(E) when its own first choice is a candidate (neural.serve)
                     ─► Selection {α*, Θ′, scores, pruned + reasons, context used, versions, timings}
 
 It holds a snapshot — graph version, vocabulary, compiled rule table, extractor registry — and
@@ -14,12 +16,20 @@ rebuilds it when a commit moves the graph version: at once for commits made thro
 KnowledgeGraph, otherwise at the next check (``poll_interval_s``; a shared remote store is polled).
 Without a frame it answers from the context alone: the rules' preferences and the graph's
 measurements (mode "prior").
+
+Measured accuracy (beyond the paper, in both modes): with A(x) = min_{y ∈ C} ATE(y) / ATE(x) ∈ (0, 1],
+C the scored candidates with measured windows under E and ATE the extractor's mean over them (the
+Decision's evidence; an unmeasured candidate has A = 0), a frame is scored F_metrics(x) + H·A(x) with
+H = Σ_x h_x(E), the most the metric terms of F_metrics can add: the measured outcome weighs as much as
+all the frame's proxies together (on KITTI 01 F_metrics prefers ORB to ORB_GRID on most frames, while
+ORB_GRID's measured ATE is half ORB's, and so is its ATE on the sequence — docs/cost.md). Without a
+frame the score is the preference bonus + A(x).
 """
 from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -30,9 +40,10 @@ from ..errors import BadInput, NoCandidate
 from ..fitness import Adjustment, adjust_params, f_metrics
 from ..kg.vocab import ExtractorSpec, Value, Vocabulary
 from ..neural.serve import ModelHolder, NeuralStep, frame_stats
-from ..rules.engine import Citation, Decision, RuleEngine, RuleTable
+from ..rules.engine import Citation, Decision, MeasuredConfiguration, RuleEngine, RuleTable
 from ..rules.shape_check import enforce
 from .budget import Budget, BudgetOutcome, resolve_budget, settle
+from .measured import measured_params
 from .selection import CandidateScore, ContextEntry, PrunedCandidate, Selection
 
 if TYPE_CHECKING:
@@ -48,9 +59,7 @@ class Snapshot:
     taken_at: float = field(default_factory=time.monotonic)
     _registry: Any = None
     # context-only answers depend on the decision alone: computed once per context and snapshot
-    _priors: dict[tuple[Any, ...], tuple[list[CandidateScore], BudgetOutcome | None, dict[str, tuple[Citation, ...]]]] = field(
-        default_factory=dict
-    )
+    _priors: dict[tuple[Any, ...], tuple[list[CandidateScore], Theta]] = field(default_factory=dict)
 
     @property
     def registry(self) -> Any:
@@ -60,6 +69,17 @@ class Snapshot:
 
             self._registry = ExtractorRegistry.from_vocabulary(self.vocab)
         return self._registry
+
+
+@dataclass
+class Theta:
+    """Θ′ per kept candidate, how it came about, the budget's outcome and what the shapes pruned."""
+
+    params: dict[str, dict[str, Value]]
+    adjustments: dict[str, list[Adjustment]]
+    outcome: BudgetOutcome | None
+    cut: dict[str, tuple[Citation, ...]]
+    measured: dict[str, tuple[MeasuredConfiguration, Citation]]
 
 
 @dataclass(frozen=True)
@@ -187,11 +207,13 @@ class Advisor:
         if nn.active:
             nn.prepare(values, frame_stats(stats))
             lap("neural")
-        scored, state, mode, outcome, cut = self._score(snap, decision, budget, nn, image, previous)
+        scored, state, mode, theta = self._score(snap, decision, values, budget, nn, image, previous)
+        outcome, cut = theta.outcome, theta.cut
         if nn.selectornet and scored:
             probs = nn.probabilities(image, {c.extractor: c.metrics for c in scored}, tuple(c.extractor for c in scored))
-            if probs:  # else no candidate is one the network was trained on: F_metrics decides
-                scored = [replace(c, score=probs.get(c.extractor, 0.0), evidence={**c.evidence, "f": c.score}) for c in scored]
+            if probs:  # else the network declined (nn.info says why) or knows no candidate: F_metrics decides
+                scored = [replace(c, score=probs.get(c.extractor, 0.0), evidence={**c.evidence, "score_without_net": c.score})
+                          for c in scored]
                 mode = "selectornet"
         lap("selection")
         pruned = {x: tuple(cs) for x, cs in decision.pruned.items()}
@@ -226,39 +248,46 @@ class Advisor:
             warnings=tuple(outcome.warnings) if outcome is not None else (),
         )
 
-    def _candidate(
-        self, spec: ExtractorSpec, decision: Decision, nn: NeuralStep, pixels: int | None
-    ) -> tuple[dict[str, Value], list[Adjustment], tuple[Citation, ...]]:
-        """Θ′ = ParamNet(E, s) where the neural step covers α, else g(Θ, E); then the context shapes:
-        the repaired Θ′, every adjustment, or (non-empty) the shapes that prune α."""
-        if nn.covers(spec.name):
-            params, adjustments = nn.params(spec, pixels)
-        else:
-            params, adjustments = adjust_params(spec, decision.factors.get(spec.name, {}), pixels=pixels)
-        outcome = enforce(spec, params, decision.shapes)
-        return outcome.params, [*adjustments, *outcome.adjustments], outcome.pruned
-
     def _theta(
-        self, snap: Snapshot, decision: Decision, budget: Budget | None, nn: NeuralStep, pixels: int | None
-    ) -> tuple[dict[str, dict[str, Value]], dict[str, list[Adjustment]], BudgetOutcome | None, dict[str, tuple[Citation, ...]]]:
-        """Θ′ per candidate (``_candidate``), then the budget's cost check (fit or prune) when one is in force.
-        Returns Θ′ and adjustments per kept candidate, the budget outcome and what the shapes pruned."""
+        self,
+        snap: Snapshot,
+        decision: Decision,
+        values: Mapping[str, str | None],
+        budget: Budget | None,
+        nn: NeuralStep,
+        pixels: int | None,
+    ) -> Theta:
+        """Θ′ per candidate — the best configuration measured under E (advisor.measured), else ParamNet(E, s)
+        where the neural step covers α, else g(Θ, E) — then the context shapes (repair or prune), then the
+        budget's cost check (fit or prune) when one is in force."""
         theta: dict[str, dict[str, Value]] = {}
         adjustments: dict[str, list[Adjustment]] = {}
         cut: dict[str, tuple[Citation, ...]] = {}
+        measured = snap.table.measured(values)
+        used: dict[str, tuple[MeasuredConfiguration, Citation]] = {}
+        conditions = ", ".join(f"{d} = {v}" for d, v in values.items() if v is not None)
 
         def admit(x: str) -> bool:
-            params, adj, because = self._candidate(snap.vocab.extractor(x), decision, nn, pixels)
-            if because:
-                cut[x] = because
+            spec = snap.vocab.extractor(x)
+            found = measured_params(spec, measured[x], conditions, snap.table.cost, budget) if x in measured else None
+            if found is not None:
+                params, adj, config, cite = found
+                used[x] = (config, cite)
+            elif nn.covers(x):
+                params, adj = nn.params(spec, pixels)
+            else:
+                params, adj = adjust_params(spec, decision.factors.get(x, {}), pixels=pixels)
+            shaped = enforce(spec, params, decision.shapes)
+            if shaped.pruned:
+                cut[x] = shaped.pruned
                 return False
-            theta[x], adjustments[x] = params, adj
+            theta[x], adjustments[x] = shaped.params, [*adj, *shaped.adjustments]
             return True
 
         for x in decision.candidates:
             admit(x)
         if budget is None:
-            return theta, adjustments, None, cut
+            return Theta(theta, adjustments, None, cut, used)
         terms = snap.table.budget_terms
         # what a relative-accuracy rule pruned is re-judged against the best *affordable* extractor
         relative = [x for x, cs in decision.pruned.items() if cs and all(c.rule in terms.relative_rules for c in cs)]
@@ -267,7 +296,8 @@ class Advisor:
         outcome = settle(snap.table.cost, terms, snap.vocab.extractors, ates, theta, relative, budget)
         for x, adj in outcome.adjustments.items():
             adjustments[x] = [*adjustments[x], *adj]
-        return {x: outcome.params[x] for x in theta if x in outcome.params}, adjustments, outcome, cut
+        kept = {x: outcome.params[x] for x in theta if x in outcome.params}
+        return Theta(kept, adjustments, outcome, cut, {x: u for x, u in used.items() if x in kept})
 
     def _conditions(
         self,
@@ -303,29 +333,33 @@ class Advisor:
         self,
         snap: Snapshot,
         decision: Decision,
+        values: Mapping[str, str | None],
         budget: Budget | None,
         nn: NeuralStep,
         image: np.ndarray | None,
         previous: FrameState | None,
-    ) -> tuple[list[CandidateScore], FrameState | None, str, BudgetOutcome | None, dict[str, tuple[Citation, ...]]]:
+    ) -> tuple[list[CandidateScore], FrameState | None, str, Theta]:
         vocab = snap.vocab
         if image is None:
             # the prior depends on the decision, the budget and (through ParamNet) the model in use
             key = (id(decision), None if budget is None else tuple(budget.as_dict().values()), nn.info.get("used"))
             cached = snap._priors.get(key)
             if cached is None:
-                theta, adjustments, outcome, cut = self._theta(snap, decision, budget, nn, None)
-                priors = [self._prior(snap, decision, x, theta[x], adjustments[x], outcome) for x in theta]
-                cached = snap._priors[key] = (priors, outcome, cut)
-            return list(cached[0]), None, "prior", cached[1], dict(cached[2])  # shared, frozen: read-only
+                theta = self._theta(snap, decision, values, budget, nn, None)
+                accuracy = measured_accuracy(decision, theta.params)
+                priors = [self._prior(decision, x, theta, accuracy) for x in theta.params]
+                cached = snap._priors[key] = (priors, theta)
+            return list(cached[0]), None, "prior", cached[1]  # shared, frozen: read-only
         small = downscale(image, self.score_max_side)
         from ..vision.metrics import compute_metrics
 
         full_px = int(image.shape[0] * image.shape[1])
-        theta, adjustments, outcome, cut = self._theta(snap, decision, budget, nn, full_px)
+        theta = self._theta(snap, decision, values, budget, nn, full_px)
+        accuracy = measured_accuracy(decision, theta.params)
+        weight = sum(w.value for w in decision.weights.values())  # H: F_metrics' most without the bonus
         out: list[CandidateScore] = []
         features: dict[str, Any] = {}
-        for x, params in theta.items():
+        for x, params in theta.params.items():
             spec = vocab.extractor(x)
             # F_metrics is measured on the scoring image with this Θ′, count parameters scaled to its size
             score_params = _scaled(spec, params, int(small.shape[0] * small.shape[1]) / full_px)
@@ -336,43 +370,41 @@ class Advisor:
                 prev = (previous.features[x], previous.image)
             metrics = compute_metrics(feats, small, prev)
             bonus = decision.bonuses[x].value if x in decision.bonuses else 0.0
+            f = f_metrics(metrics, decision.weights, vocab.metrics, bonus)
             out.append(
                 CandidateScore(
                     extractor=x,
                     params=params,
-                    score=f_metrics(metrics, decision.weights, vocab.metrics, bonus),
+                    score=f + weight * accuracy.get(x, 0.0),
                     bonus=bonus,
                     metrics={k: round(v, 6) for k, v in metrics.items()},
-                    adjustments=tuple(adjustments[x]),
+                    adjustments=tuple(theta.adjustments[x]),
                     keypoints=len(feats.xy),
                     extraction_ms=round(feats.elapsed_ms, 3),
-                    evidence=_evidence_dict(decision, x, outcome),
+                    evidence={**_evidence_dict(decision, x, theta), "f_metrics": f,
+                              "measured_accuracy": round(accuracy.get(x, 0.0), 6)},
                 )
             )
-        return out, FrameState(small, features), "metrics", outcome, cut
+        return out, FrameState(small, features), "metrics", theta
 
-    def _prior(
-        self,
-        snap: Snapshot,
-        decision: Decision,
-        x: str,
-        params: dict[str, Value],
-        adjustments: list[Adjustment],
-        outcome: BudgetOutcome | None,
-    ) -> CandidateScore:
-        """Without a frame: the preference bonus plus measured accuracy (best mean ATE / this one's)."""
+    def _prior(self, decision: Decision, x: str, theta: Theta, accuracy: Mapping[str, float]) -> CandidateScore:
+        """Without a frame: the preference bonus plus the measured accuracy A(x)."""
         bonus = decision.bonuses[x].value if x in decision.bonuses else 0.0
-        measured = [e.mean_ate for e in decision.evidence.values() if e.mean_ate]
-        own = decision.evidence.get(x)
-        accuracy = (min(measured) / own.mean_ate) if (own and own.mean_ate and measured) else 0.0
         return CandidateScore(
             extractor=x,
-            params=params,
-            score=bonus + accuracy,
+            params=theta.params[x],
+            score=bonus + accuracy.get(x, 0.0),
             bonus=bonus,
-            adjustments=tuple(adjustments),
-            evidence=_evidence_dict(decision, x, outcome),
+            adjustments=tuple(theta.adjustments[x]),
+            evidence=_evidence_dict(decision, x, theta),
         )
+
+
+def measured_accuracy(decision: Decision, candidates: Iterable[str]) -> dict[str, float]:
+    """A(x) = min over the measured candidates of their mean ATE / x's mean ATE (module docstring)."""
+    ates = {x: e.mean_ate for x in candidates if (e := decision.evidence.get(x)) is not None and e.mean_ate}
+    best = min(ates.values(), default=None)
+    return {x: best / ate for x, ate in ates.items()} if best else {}
 
 
 def _scaled(spec: ExtractorSpec, params: Mapping[str, Value], ratio: float) -> dict[str, Value]:
@@ -399,13 +431,19 @@ def _budget_number(value: Any) -> float | None:
     return ms
 
 
-def _evidence_dict(decision: Decision, x: str, outcome: BudgetOutcome | None = None) -> dict[str, Any]:
+def _evidence_dict(decision: Decision, x: str, theta: Theta | None = None) -> dict[str, Any]:
     e = decision.evidence.get(x)
     out: dict[str, Any] = {}
     if e is not None:
         out = {"mean_ate_m": e.mean_ate, "windows": e.windows, "extraction_ms": e.extraction_ms}
-    if outcome is not None and x in outcome.estimates:
-        est = outcome.estimates[x]
+    if theta is None:
+        return out
+    if x in theta.measured:
+        config, cite = theta.measured[x]
+        out["configuration"] = {"iri": config.iri, "mean_ate_m": round(config.mean_ate, 6), "windows": config.windows,
+                                "because": cite.as_dict()}
+    if theta.outcome is not None and x in theta.outcome.estimates:
+        est = theta.outcome.estimates[x]
         out["expected_ms"] = round(est.ms, 3) if est.ms is not None else None
         out["cost_source"] = est.source
     return out

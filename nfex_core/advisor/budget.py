@@ -94,7 +94,8 @@ class BudgetOutcome:
     readmitted: dict[str, str] = field(default_factory=dict)  # pruned relative to an unaffordable best
 
 
-def _expected(cost: CostModel, spec: ExtractorSpec, theta: Mapping[str, Value], b: Budget) -> Estimate:
+def expected(cost: CostModel, spec: ExtractorSpec, theta: Mapping[str, Value], b: Budget) -> Estimate:
+    """The expected extraction time of Θ on the budget's frame size and compute class."""
     e = cost.expected(spec, theta, b.width, b.height)
     return Estimate(e.ms * b.factor, e.source, e.measurements) if e.ms is not None else e
 
@@ -121,7 +122,7 @@ def fit_params(
                 trial[nf] = count  # type: ignore[index]
             if level is not None:
                 trial[nl] = level  # type: ignore[index]
-            e = _expected(cost, spec, trial, b)
+            e = expected(cost, spec, trial, b)
             if e.ms is not None and e.ms <= b.ms:
                 return trial, e
     return None
@@ -141,7 +142,7 @@ def apply_budget(
     allowed = f"the budget {b.ms:g} ms ({b.source}, compute {b.compute} ×{b.factor:g}, {b.width}×{b.height})"
     for x, params in theta.items():
         spec = specs[x]
-        e = _expected(cost, spec, params, b)
+        e = expected(cost, spec, params, b)
         out.estimates[x] = e
         if e.ms is None and not cost.extractors:  # nothing measured at all: the budget cannot be applied
             out.params[x] = dict(params)
@@ -225,7 +226,7 @@ def cheapest(
             if model.nl and model.per_mp_level > 0:
                 p = spec.parameters[model.nl]
                 trial[model.nl] = max(int(p.min) if p.min is not None else 1, min(MIN_LEVELS, int(params[model.nl])))
-        e = _expected(cost, spec, trial, b)
+        e = expected(cost, spec, trial, b)
         if e.ms is None:
             continue
         if best is None or e.ms < (best[3].ms or float("inf")):

@@ -1,7 +1,7 @@
 """``nfex kg …``: transactional, SHACL-checked writes, versions and export."""
 from __future__ import annotations
 
-from enum import Enum
+from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
 
@@ -125,7 +125,7 @@ def rollback(
     report_commit(kg.rollback(version, author=author_of(author), expected_version=expect_version), f"rollback to version {version}")
 
 
-class ExportFormat(str, Enum):
+class ExportFormat(StrEnum):
     turtle = "turtle"
     nt = "nt"
     jsonld = "json-ld"

@@ -10,6 +10,7 @@ from __future__ import annotations
 import hashlib
 from collections.abc import Iterable
 from decimal import Decimal
+from typing import Any
 
 import pyoxigraph as ox
 import rdflib
@@ -84,6 +85,11 @@ def from_sparql_json(b: dict[str, str]) -> Node:
     if dt:
         return plain(Literal(b["value"], datatype=URIRef(dt)))
     return Literal(b["value"])
+
+
+def py(term: object) -> Any:
+    """A SPARQL result term as a Python value (a literal's value; an IRI or blank node as it is)."""
+    return term.toPython() if isinstance(term, Literal) else term
 
 
 def n3(term: Node) -> str:

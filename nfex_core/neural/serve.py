@@ -102,7 +102,9 @@ class NeuralStep:
         self, image: np.ndarray | None, metrics: Mapping[str, Mapping[str, float]], candidates: Sequence[str]
     ) -> dict[str, float]:
         """P(α | frame, E, metrics) over the candidates C(E) that the sweep measured; pruned extractors
-        (and extractors absent from the training data, whose outputs are untrained) are masked out."""
+        (and extractors absent from the training data, whose outputs are untrained) are masked out.
+        Empty (and ``info["declined"]`` says why) when the network's own first choice over everything it
+        knows is not a candidate: the caller's F_metrics decides then."""
         assert self.model is not None and self.model.selectornet is not None
         assert self._ctx is not None and self._stats is not None
         inp = self.model.inputs
@@ -111,7 +113,19 @@ class NeuralStep:
         img = prepare_image(image) if image is not None else np.zeros((48, 160), np.float32)
         metrics = {x: m for x, m in metrics.items() if x in known}
         num = numeric_input(self._ctx, self._stats, image is not None, metrics, inp.extractors, inp.metrics)
-        return masked_probabilities(net.logits(img, num), inp.extractors, [x for x in candidates if x in known])
+        logits = net.logits(img, num)
+        allowed = [x for x in candidates if x in known]
+        full = masked_probabilities(logits, inp.extractors, sorted(known))
+        top = max(full, key=full.__getitem__) if full else None
+        if top is not None and allowed and top not in allowed:
+            # trained to name each window's best extractor, its ranking of the rest is not what it learned
+            self.info["declined"] = (
+                f"SelectorNet names {top} (p = {full[top]:.2f}), which the rules or the budget removed; it was "
+                "trained on each window's best extractor, not on a ranking of the others, so F_metrics and "
+                "the measured accuracy decide among the candidates"
+            )
+            return {}
+        return masked_probabilities(logits, inp.extractors, allowed)
 
 
 class ModelHolder:

@@ -5,7 +5,9 @@ evaluates every SPARQL pruning rule once for all contexts (one query per rule, s
 every DSL statement and context shape (shapes.py) for all contexts, and stores a ``Decision`` per context: the candidates, the pruned
 extractors with the rules that pruned them, the parameter factors f_kj, the metric weights h_x, the
 preference bonuses, the context shapes in force (``require`` statements are compiled to them), and the measured evidence per extractor. A
-request then pays one dictionary lookup. ``compile_table`` runs again when the graph version changes.
+request then pays one dictionary lookup. The measured configurations of each extractor under a context
+(``RuleTable.measured``: the graph's answer to "which Θ of α had the lowest mean ATE here?") are ranked
+on a context's first request and kept. ``compile_table`` runs again when the graph version changes.
 The same step fits the cost model (nfex_core/cost.py) and reads the budget terms, so a request's
 budget check (advisor/budget.py) costs arithmetic only.
 
@@ -25,6 +27,8 @@ from typing import TYPE_CHECKING, Any
 from rdflib.term import URIRef
 
 from ..cost import BudgetTerms, CostModel, fit_cost_model
+from ..kg.terms import py
+from ..kg.vocab import Value
 from . import pruning
 from .statements import Statement, load_statements
 
@@ -66,6 +70,22 @@ class Evidence:
 
 
 @dataclass(frozen=True)
+class MeasuredConfiguration:
+    """A configuration of an extractor and its measured accuracy under a context's known conditions."""
+
+    iri: str
+    params: Mapping[str, Value]  # OpenCV argument names → values, as measured
+    mean_ate: float
+    windows: int  # measurements that count under the context
+
+
+@dataclass(frozen=True)
+class _Measured:
+    conditions: frozenset[tuple[str, str]]  # (dimension, value) of every condition the measurement was under
+    ate: float | None  # None: the window failed
+
+
+@dataclass(frozen=True)
 class Decision:
     context: Mapping[str, str | None]
     candidates: tuple[str, ...]
@@ -92,6 +112,10 @@ class RuleTable:
     compile_ms: float
     cost: CostModel = field(default_factory=CostModel)
     budget_terms: BudgetTerms = field(default_factory=BudgetTerms)
+    # extractor → configuration IRI → (Θ as measured, its measurements); see ``measured``
+    configurations: dict[str, dict[str, tuple[dict[str, Value], list[_Measured]]]] = field(default_factory=dict)
+    min_measurements: int = 3
+    _measured: dict[ContextKey, dict[str, tuple[MeasuredConfiguration, ...]]] = field(default_factory=dict, repr=False)
 
     def key(self, context: Mapping[str, str | None]) -> ContextKey:
         return tuple(context.get(d) for d in self.dimensions)
@@ -99,6 +123,34 @@ class RuleTable:
     def decide(self, context: Mapping[str, str | None]) -> Decision:
         """The decision for a context (values must be checked against the vocabulary beforehand)."""
         return self.decisions[self.key(context)]
+
+    def measured(self, context: Mapping[str, str | None]) -> dict[str, tuple[MeasuredConfiguration, ...]]:
+        """Per extractor, its measured configurations under ``context``, lowest mean ATE first.
+
+        A measurement counts when it shares at least one of the context's known condition values and
+        contradicts none (a window measured under light = dark says nothing about a bright frame). A
+        configuration is listed when at least ``nfex:minMeasurements`` measurements count and none of
+        them failed (a configuration that lost a window here is not a candidate for the best one)."""
+        key = self.key(context)
+        found = self._measured.get(key)
+        if found is not None:
+            return found
+        known = {d: v for d, v in zip(self.dimensions, key, strict=True) if v is not None}
+        found = {}
+        for x, configurations in self.configurations.items():
+            ranked = []
+            for iri, (params, measurements) in configurations.items():
+                ates: list[float | None] = [
+                    m.ate for m in measurements
+                    if any(known.get(d) == v for d, v in m.conditions) and all(known.get(d, v) == v for d, v in m.conditions)
+                ]
+                if len(ates) < self.min_measurements or any(a is None for a in ates):
+                    continue
+                ranked.append(MeasuredConfiguration(iri, params, sum(ates) / len(ates), len(ates)))  # type: ignore[arg-type]
+            if ranked:
+                found[x] = tuple(sorted(ranked, key=lambda c: (c.mean_ate, c.iri)))
+        self._measured[key] = found
+        return found
 
 
 def _evidence(kg: KnowledgeGraph) -> dict[tuple[str, str, str], tuple[float | None, int, float | None]]:
@@ -117,10 +169,49 @@ def _evidence(kg: KnowledgeGraph) -> dict[tuple[str, str, str], tuple[float | No
     ).rows
     out: dict[tuple[str, str, str], tuple[float | None, int, float | None]] = {}
     for r in rows:
-        mean = float(r["mean"].toPython()) if "mean" in r else None
-        cost = float(r["cost"].toPython()) if "cost" in r else None
-        out[(str(r["xname"]), str(r["dim"]), str(r["val"]))] = (mean, int(r["n"].toPython()), cost)
+        mean = float(py(r["mean"])) if "mean" in r else None
+        cost = float(py(r["cost"])) if "cost" in r else None
+        out[(str(r["xname"]), str(r["dim"]), str(r["val"]))] = (mean, int(py(r["n"])), cost)
     return out
+
+
+def _configurations(kg: KnowledgeGraph) -> dict[str, dict[str, tuple[dict[str, Value], list[_Measured]]]]:
+    """Every measured configuration with its settings and, per measurement, its conditions and ATE."""
+    settings: dict[str, dict[str, Value]] = {}
+    for r in kg.select(
+        """SELECT ?cfg ?name ?v WHERE { ?cfg a nfex:Configuration ; nfex:hasSetting ?s .
+               ?s nfex:parameter/nfex:opencvName ?name ; nfex:value ?v .
+               FILTER EXISTS { ?m a nfex:Measurement ; sosa:usedProcedure ?cfg } }"""
+    ).rows:
+        settings.setdefault(str(r["cfg"]), {})[str(r["name"])] = py(r["v"])
+    per: dict[tuple[str, str, str], tuple[set[tuple[str, str]], float | None]] = {}
+    for r in kg.select(
+        """SELECT ?xname ?cfg ?m ?dim ?val ?ate WHERE {
+            ?m a nfex:Measurement ; sosa:usedProcedure ?cfg .
+            ?cfg nfex:ofExtractor/nfex:token ?xname .
+            OPTIONAL { ?m nfex:underCondition ?c . ?c nfex:token ?val ; nfex:inDimension/nfex:token ?dim . }
+            OPTIONAL { ?m nfex:ateRmse ?ate }
+        }"""
+    ).rows:
+        k = (str(r["xname"]), str(r["cfg"]), str(r["m"]))
+        conds, ate = per.setdefault(k, (set(), float(py(r["ate"])) if "ate" in r else None))
+        if "dim" in r:
+            conds.add((str(r["dim"]), str(r["val"])))
+    out: dict[str, dict[str, tuple[dict[str, Value], list[_Measured]]]] = {}
+    for (x, cfg, _m), (conds, ate) in per.items():
+        entry = out.setdefault(x, {}).setdefault(cfg, (settings.get(cfg, {}), []))
+        entry[1].append(_Measured(frozenset(conds), ate))
+    return out
+
+
+def _measured_rule_enabled(kg: KnowledgeGraph) -> bool:
+    rows = kg.select("SELECT ?e WHERE { nfex:rule_measured_configuration nfex:enabled ?e }").rows
+    return not any(py(r["e"]) is False for r in rows)
+
+
+def _min_measurements(kg: KnowledgeGraph) -> int:
+    rows = kg.select("SELECT ?n WHERE { nfex:minMeasurements nfex:value ?n }").rows
+    return int(py(rows[0]["n"])) if rows else 3
 
 
 def _combine(items: list[tuple[float | None, int, float | None]]) -> Evidence:
@@ -210,9 +301,12 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
         )
     cost = fit_cost_model(kg, vocab.extractors)
     budget_terms = BudgetTerms.load(kg)
+    configurations = _configurations(kg) if _measured_rule_enabled(kg) else {}
+    least = _min_measurements(kg)
     ms = (time.perf_counter() - t0) * 1000
     log.info("compiled %d contexts, %d rules, %d statements at graph version %d in %.0f ms", len(keys), len(rules), len(statements), version, ms)
-    return RuleTable(version, dims, decisions, rules, statements, errors, ms, cost, budget_terms)
+    return RuleTable(version, dims, decisions, rules, statements, errors, ms, cost, budget_terms,
+                     configurations, least)
 
 
 class RuleEngine:

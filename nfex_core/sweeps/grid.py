@@ -21,8 +21,9 @@ PRESETS: dict[str, dict[str, list[Value]]] = {
     "ORB": {"nfeatures": [500, 1000, 2000], "scaleFactor": [1.2, 1.4], "nlevels": [4, 8], "fastThreshold": [10, 20]},
     "SIFT": {"nfeatures": [0, 1000, 2000], "contrastThreshold": [0.02, 0.04], "edgeThreshold": [10.0, 20.0],
              "nOctaveLayers": [3, 4]},
-    # the grid-spread ORB (issue 8): the two parameters its cost depends on, 6 configurations
-    "ORB_GRID": {"nfeatures": [500, 1000, 2000], "nlevels": [4, 8]},
+    # the grid-spread ORB (issue 8): the two parameters its cost depends on and the FAST threshold, 16
+    # configurations; 3000 features because spreading them pays on wide road scenes (docs/cost.md)
+    "ORB_GRID": {"nfeatures": [500, 1000, 2000, 3000], "nlevels": [4, 8], "fastThreshold": [10, 20]},
     "AKAZE": {"threshold": [0.0005, 0.001, 0.002], "nOctaves": [3, 4], "nOctaveLayers": [2, 4], "diffusivity": [1, 2]},
     "BRISK": {"thresh": [15, 30, 60], "octaves": [2, 3], "patternScale": [0.8, 1.0]},
 }

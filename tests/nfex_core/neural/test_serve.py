@@ -195,3 +195,18 @@ def test_both_skips_a_network_that_validated_worse_than_its_baseline(trained, kg
     assert both.params == symbolic_params(kg, both.extractor, DARK)
     forced = Advisor(kg, models=d, neural="paramnet").select(DARK)
     assert forced.versions["model"]["used"] == "paramnet" and "skipped" not in forced.versions["model"]
+
+
+def test_selectornet_declines_when_its_first_choice_was_pruned(trained, kg: KnowledgeGraph) -> None:  # type: ignore[no-untyped-def]
+    """Trained on each window's best extractor, its ranking of the rest is untrained: F_metrics decides then."""
+    from nfex_core.rules.dsl import programs
+
+    _, model = trained
+    advisor = Advisor(kg, models=model.path, neural="selectornet")
+    free = advisor.select(DARK)
+    assert free.mode == "selectornet" and free.extractor == "ORB"  # ORB wins the dark windows when it may
+    _, g = programs.compile_text('program no_orb\nprune ORB when light is dark because "test"', kg.vocabulary(), name="no_orb")
+    programs.apply(kg, g, "no_orb", author="test")
+    s = advisor.select(DARK)
+    assert s.mode == "prior" and s.extractor != "ORB"
+    assert "SelectorNet names ORB" in s.versions["model"]["declined"]

@@ -1,0 +1,77 @@
+"""Θ′ from the graph's own measurements: the best measured configuration of α under E.
+
+Beyond the paper (its Θ′ is g(Θ, E) or ParamNet): where the graph holds Measurements of α under the
+request's conditions (``RuleTable.measured``: at least ``nfex:minMeasurements`` windows that share a
+known condition value with the context and contradict none, none of them failed), Θ′ is the measured
+configuration with the lowest mean ATE among them,
+
+    Θ′ = argmin_{Θ measured for α under E} mean ATE(α, Θ | E),
+
+and under a budget the lowest among those whose expected cost fits it (else the best, which the
+budget step then fits or prunes). This is the "dynamically optimised" configuration of the paper's
+baselines (§V-B), read from the graph at request time and updated by every sweep or feedback commit.
+ParamNet or the rules' factors set Θ′ where nothing was measured. Each parameter that differs from
+the graph's default cites ``nfex:rule_measured_configuration`` (disable it as data to keep g(Θ, E)).
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from ..cost import CostModel
+from ..fitness import Adjustment
+from ..kg.vocab import ExtractorSpec, Value
+from ..namespaces import NFEX
+from ..rules.engine import Citation, MeasuredConfiguration
+from .budget import Budget, expected
+
+MEASURED_RULE = str(NFEX.rule_measured_configuration)
+MEASURED_LABEL = "Best measured configuration under these conditions"
+
+
+def measured_params(
+    spec: ExtractorSpec,
+    ranked: Sequence[MeasuredConfiguration],
+    conditions: str,
+    cost: CostModel | None = None,
+    budget: Budget | None = None,
+) -> tuple[dict[str, Value], list[Adjustment], MeasuredConfiguration, Citation] | None:
+    """Θ′ from ``ranked`` (lowest mean ATE first; ``conditions`` names the context for the reason), the
+    adjustments from the defaults citing the measurement, the configuration chosen and the citation (also
+    when Θ′ is the defaults); None when no ranked configuration is valid for the graph's parameter ranges."""
+    usable: list[tuple[MeasuredConfiguration, dict[str, Value]]] = []
+    for c in ranked:
+        try:
+            usable.append((c, spec.resolve(dict(c.params))))
+        except Exception:  # measured under a parameter range the graph no longer allows
+            continue
+    if not usable:
+        return None
+    chosen, theta = usable[0]
+    note = f"the lowest of {len(usable)} measured configurations"
+    if budget is not None and cost is not None:
+        for c, params in usable:
+            e = expected(cost, spec, params, budget)
+            if e.ms is not None and e.ms <= budget.ms:
+                if c is not chosen:
+                    note = (f"the lowest of the measured configurations whose expected {e.ms:.1f} ms fits "
+                            f"the budget {budget.ms:g} ms (the best, {usable[0][0].mean_ate:.3f} m, does not)")
+                chosen, theta = c, params
+                break
+    cite = Citation(
+        MEASURED_RULE,
+        MEASURED_LABEL,
+        f"{chosen.iri.rsplit('#', 1)[-1]}: mean ATE {chosen.mean_ate:.3f} m over {chosen.windows} windows "
+        f"measured under {conditions}, {note}",
+        "measured",
+    )
+    defaults = spec.defaults()
+    adjustments = [
+        Adjustment(k, defaults[k], v, float(v) / float(defaults[k]) if _numeric(v) and float(defaults[k]) else 1.0, (cite,))
+        for k, v in theta.items()
+        if k in defaults and v != defaults[k]
+    ]
+    return theta, adjustments, chosen, cite
+
+
+def _numeric(v: Value) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool)
