@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import json
-import time
 from typing import Any
 
 import numpy as np
@@ -83,17 +82,6 @@ async def read_select(request: Request, settings: Settings, *, frame_required: b
             await form.close()
     raise UnsupportedMediaType(
         f"send application/json ({{\"context\": …}}) or multipart/form-data (frame + context), not {media or 'nothing'!r}"
-    )
-
-
-def snapshot_is_fresh(advisor: Advisor) -> bool:
-    """Whether ``advisor.select`` will answer from its current snapshot (no store round trip, no rule
-    compilation), so a context-only request may run on the event loop instead of a worker thread."""
-    snap = getattr(advisor, "_snapshot", None)
-    return (
-        snap is not None
-        and not getattr(advisor, "_dirty", True)
-        and time.monotonic() - snap.taken_at < getattr(advisor, "poll_interval_s", 0.0)
     )
 
 

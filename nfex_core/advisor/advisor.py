@@ -27,9 +27,11 @@ frame the score is the preference bonus + A(x).
 """
 from __future__ import annotations
 
+import os
 import threading
 import time
 from collections.abc import Iterable, Mapping
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -90,11 +92,15 @@ class FrameState:
     features: dict[str, Any]
 
 
-def downscale(image: np.ndarray, max_side: int) -> np.ndarray:
+SCORE_PIXELS = 320 * 240  # QVGA: the scoring copy's pixel count, whatever the aspect ratio (KITTI: 503×152)
+
+
+def downscale(image: np.ndarray, pixels: int) -> np.ndarray:
+    """``image`` scaled (INTER_AREA) to about ``pixels`` pixels, keeping its aspect ratio; never enlarged."""
     import cv2
 
     h, w = image.shape[:2]
-    s = max_side / max(h, w)
+    s = (pixels / (h * w)) ** 0.5
     if s >= 1.0:
         return image
     return cv2.resize(image, (max(1, round(w * s)), max(1, round(h * s))), interpolation=cv2.INTER_AREA)
@@ -102,13 +108,15 @@ def downscale(image: np.ndarray, max_side: int) -> np.ndarray:
 
 class Advisor:
     """``neural``: symbolic | paramnet | selectornet | both (default: $NFEX_NEURAL or both; see neural.serve);
-    ``models``: the model folder (default: Settings.models). Without a usable model the advisor is symbolic."""
+    ``models``: the model folder (default: Settings.models). Without a usable model the advisor is symbolic.
+    ``score_pixels``: F_metrics is measured on a copy of the frame of about this many pixels (QVGA: on 2
+    cores a frame request scores SIFT in ~15 ms there against ~50 ms on a 640-px copy; bench/bench_service.py)."""
 
     def __init__(
         self,
         kg: KnowledgeGraph,
         *,
-        score_max_side: int = 640,
+        score_pixels: int = SCORE_PIXELS,
         poll_interval_s: float = 1.0,
         neural: str | None = None,
         models: Path | str | None = None,
@@ -116,7 +124,7 @@ class Advisor:
         self.kg = kg
         self.neural = ModelHolder(models, neural)
         self.engine = RuleEngine(kg)
-        self.score_max_side = score_max_side
+        self.score_pixels = score_pixels
         self.poll_interval_s = poll_interval_s
         self._snapshot: Snapshot | None = None
         self._dirty = True
@@ -126,6 +134,17 @@ class Advisor:
     # ------------------------------------------------------------------ snapshot
     def invalidate(self) -> None:
         self._dirty = True
+
+    def current_snapshot(self) -> Snapshot | None:
+        """The snapshot built last (None before the first), without checking the graph version: for
+        reporting (``/readyz``); ``snapshot()`` is what a selection uses."""
+        return self._snapshot
+
+    def is_fresh(self) -> bool:
+        """Whether ``select`` will answer from the current snapshot without a store round trip or a rule
+        compilation (the service then runs a context-only request on its event loop)."""
+        snap = self._snapshot
+        return snap is not None and not self._dirty and time.monotonic() - snap.taken_at < self.poll_interval_s
 
     def snapshot(self) -> Snapshot:
         snap = self._snapshot
@@ -209,12 +228,9 @@ class Advisor:
             lap("neural")
         scored, state, mode, theta = self._score(snap, decision, values, budget, nn, image, previous)
         outcome, cut = theta.outcome, theta.cut
-        if nn.selectornet and scored:
-            probs = nn.probabilities(image, {c.extractor: c.metrics for c in scored}, tuple(c.extractor for c in scored))
-            if probs:  # else the network declined (nn.info says why) or knows no candidate: F_metrics decides
-                scored = [replace(c, score=probs.get(c.extractor, 0.0), evidence={**c.evidence, "score_without_net": c.score})
-                          for c in scored]
-                mode = "selectornet"
+        if image is None:
+            scored, decided = _by_network(nn, None, scored, scored)
+            mode = "selectornet" if decided else mode
         lap("selection")
         pruned = {x: tuple(cs) for x, cs in decision.pruned.items()}
         pruned.update(cut)
@@ -350,42 +366,72 @@ class Advisor:
                 priors = [self._prior(decision, x, theta, accuracy) for x in theta.params]
                 cached = snap._priors[key] = (priors, theta)
             return list(cached[0]), None, "prior", cached[1]  # shared, frozen: read-only
-        small = downscale(image, self.score_max_side)
+        small = downscale(image, self.score_pixels)
         from ..vision.metrics import compute_metrics
 
         full_px = int(image.shape[0] * image.shape[1])
         theta = self._theta(snap, decision, values, budget, nn, full_px)
         accuracy = measured_accuracy(decision, theta.params)
         weight = sum(w.value for w in decision.weights.values())  # H: F_metrics' most without the bonus
-        out: list[CandidateScore] = []
-        features: dict[str, Any] = {}
-        for x, params in theta.params.items():
+        small_px = int(small.shape[0] * small.shape[1])
+
+        def score(x: str) -> tuple[CandidateScore, Any]:
+            params = theta.params[x]
             spec = vocab.extractor(x)
             # F_metrics is measured on the scoring image with this Θ′, count parameters scaled to its size
-            score_params = _scaled(spec, params, int(small.shape[0] * small.shape[1]) / full_px)
-            feats = snap.registry.extract(x, small, score_params)
-            features[x] = feats
+            feats = snap.registry.extract(x, small, _scaled(spec, params, small_px / full_px))
             prev = None
             if previous is not None and x in previous.features and previous.image.shape == small.shape:
                 prev = (previous.features[x], previous.image)
             metrics = compute_metrics(feats, small, prev)
             bonus = decision.bonuses[x].value if x in decision.bonuses else 0.0
             f = f_metrics(metrics, decision.weights, vocab.metrics, bonus)
-            out.append(
-                CandidateScore(
-                    extractor=x,
-                    params=params,
-                    score=f + weight * accuracy.get(x, 0.0),
-                    bonus=bonus,
-                    metrics={k: round(v, 6) for k, v in metrics.items()},
-                    adjustments=tuple(theta.adjustments[x]),
-                    keypoints=len(feats.xy),
-                    extraction_ms=round(feats.elapsed_ms, 3),
-                    evidence={**_evidence_dict(decision, x, theta), "f_metrics": f,
-                              "measured_accuracy": round(accuracy.get(x, 0.0), 6)},
-                )
-            )
+            return CandidateScore(
+                extractor=x,
+                params=params,
+                score=f + weight * accuracy.get(x, 0.0),
+                bonus=bonus,
+                metrics={k: round(v, 6) for k, v in metrics.items()},
+                adjustments=tuple(theta.adjustments[x]),
+                keypoints=len(feats.xy),
+                extraction_ms=round(feats.elapsed_ms, 3),
+                evidence={**_evidence_dict(decision, x, theta), "f_metrics": f,
+                          "measured_accuracy": round(accuracy.get(x, 0.0), 6)},
+            ), feats
+
+        def run(names: list[str]) -> list[tuple[CandidateScore, Any]]:
+            # OpenCV releases the GIL: the candidates are extracted and scored side by side
+            return list(_pool().map(score, names)) if len(names) > 1 else [score(x) for x in names]
+
+        names = list(theta.params)
+        known = nn.selector_extractors if nn.selectornet else None
+        # SelectorNet is masked to what it was trained on: score those first; if it decides, the others
+        # (probability 0 whatever their F_metrics) are not extracted at all
+        first = [x for x in names if x in known] if known is not None else names
+        done = run(first or names)
+        scored = [c for c, _ in done]
+        features = {c.extractor: feats for c, feats in done}
+        if known is not None and first:
+            everyone = scored + [self._unscored(decision, x, theta) for x in names if x not in first]
+            ranked, decided = _by_network(nn, image, scored, everyone)
+            if decided:
+                return ranked, FrameState(small, features), "selectornet", theta
+            more = run([x for x in names if x not in first])
+            scored += [c for c, _ in more]
+            features.update({c.extractor: feats for c, feats in more})
+        out = scored
         return out, FrameState(small, features), "metrics", theta
+
+    def _unscored(self, decision: Decision, x: str, theta: Theta) -> CandidateScore:
+        """A candidate SelectorNet was not trained on, listed (probability 0) but not extracted."""
+        return CandidateScore(
+            extractor=x,
+            params=theta.params[x],
+            score=None,
+            adjustments=tuple(theta.adjustments[x]),
+            evidence={**_evidence_dict(decision, x, theta),
+                      "not_scored": "SelectorNet decided and was not trained on this extractor (probability 0)"},
+        )
 
     def _prior(self, decision: Decision, x: str, theta: Theta, accuracy: Mapping[str, float]) -> CandidateScore:
         """Without a frame: the preference bonus plus the measured accuracy A(x)."""
@@ -400,11 +446,42 @@ class Advisor:
         )
 
 
+def _by_network(
+    nn: NeuralStep, image: np.ndarray | None, scored: list[CandidateScore], everyone: list[CandidateScore]
+) -> tuple[list[CandidateScore], bool]:
+    """SelectorNet's probabilities over ``everyone`` (its inputs: the metrics of ``scored``), or ``scored``
+    unchanged and False when it is off, declined (nn.info says why) or knows no candidate."""
+    if not (nn.selectornet and scored):
+        return scored, False
+    probs = nn.probabilities(image, {c.extractor: c.metrics for c in scored}, tuple(c.extractor for c in everyone))
+    if not probs:
+        return scored, False
+    return [replace(c, score=probs.get(c.extractor, 0.0),
+                    evidence={**c.evidence, "score_without_net": c.score} if c.score is not None else c.evidence)
+            for c in everyone], True
+
+
 def measured_accuracy(decision: Decision, candidates: Iterable[str]) -> dict[str, float]:
     """A(x) = min over the measured candidates of their mean ATE / x's mean ATE (module docstring)."""
     ates = {x: e.mean_ate for x in candidates if (e := decision.evidence.get(x)) is not None and e.mean_ate}
     best = min(ates.values(), default=None)
     return {x: best / ate for x, ate in ates.items()} if best else {}
+
+
+_POOL: ThreadPoolExecutor | None = None
+_POOL_LOCK = threading.Lock()
+
+
+def _pool() -> ThreadPoolExecutor:
+    """One small thread pool per process for scoring candidates side by side (``NFEX_SCORE_THREADS``,
+    default the CPU count, at most 8)."""
+    global _POOL
+    if _POOL is None:
+        with _POOL_LOCK:
+            if _POOL is None:
+                n = int(os.environ.get("NFEX_SCORE_THREADS") or min(8, os.cpu_count() or 1))
+                _POOL = ThreadPoolExecutor(max(1, n), thread_name_prefix="nfex-score")
+    return _POOL
 
 
 def _scaled(spec: ExtractorSpec, params: Mapping[str, Value], ratio: float) -> dict[str, Value]:

@@ -58,6 +58,11 @@ class NeuralStep:
     _stats: np.ndarray | None = None
 
     @property
+    def selector_extractors(self) -> frozenset[str]:
+        """The extractors SelectorNet was trained on (its probabilities cover only these)."""
+        return frozenset(self.model.selector_extractors) if self.model is not None else frozenset()
+
+    @property
     def active(self) -> bool:
         return self.paramnet or self.selectornet
 

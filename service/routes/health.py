@@ -29,7 +29,7 @@ def readyz(request: Request, kg: KGDep) -> JSONResponse:
     }
     if state.warmup_error is not None:
         body.update(status="failed", detail=state.warmup_error)
-    snap = state.advisor._snapshot
+    snap = state.advisor.current_snapshot()
     if snap is not None:
         body["rule_table"] = {"version": snap.version, "rules": len(snap.table.rules), "contexts": len(snap.table.decisions),
                               "compile_ms": round(snap.table.compile_ms, 1)}

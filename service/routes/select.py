@@ -7,7 +7,7 @@ from fastapi import APIRouter, Request
 from fastapi.concurrency import run_in_threadpool
 
 from ..deps import AdvisorDep, SettingsDep
-from ..frames import read_select, run_advisor, snapshot_is_fresh
+from ..frames import read_select, run_advisor
 from ..schemas import CONTEXT_EXAMPLE, PROBLEM_RESPONSES
 
 router = APIRouter(prefix="/v1", tags=["selection"])
@@ -44,7 +44,7 @@ SELECT_BODY = {
 )
 async def select(request: Request, advisor: AdvisorDep, settings: SettingsDep) -> dict[str, Any]:
     context, frame = await read_select(request, settings)
-    if frame is None and snapshot_is_fresh(advisor):  # microseconds: a table lookup, not worth a thread hop
+    if frame is None and advisor.is_fresh():  # microseconds: a table lookup, not worth a thread hop
         selection = run_advisor(advisor, context, None)
     else:
         selection = await run_in_threadpool(run_advisor, advisor, context, frame)

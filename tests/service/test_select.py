@@ -56,16 +56,13 @@ def test_frame_grey_and_colour(service: Service, kitti_frame: np.ndarray, colour
     image = cv2.cvtColor(kitti_frame, cv2.COLOR_GRAY2BGR) if colour else kitti_frame
     r = httpx.post(service.url + "/v1/select", files={"frame": ("f.png", png(image), "image/png")},
                    data={"context": json.dumps({"agent": "car"})}, timeout=60)
-    try:
-        import nfex_core.vision.context  # noqa: F401
-        import nfex_core.vision.metrics  # noqa: F401
-    except ModuleNotFoundError:
-        assert_problem(r, 501, "not-implemented")  # this build lacks frame scoring (branch wt-vision)
-        return
     assert r.status_code == 200, r.text
     sel = r.json()
     assert sel["mode"] in ("metrics", "selectornet")
-    assert all(c["keypoints"] is not None for c in sel["candidates"])
+    chosen = next(c for c in sel["candidates"] if c["extractor"] == sel["extractor"])
+    assert chosen["keypoints"] and chosen["metrics"]
+    # a candidate SelectorNet never saw is listed with probability 0 and not extracted
+    assert all(c["keypoints"] is not None or "not_scored" in c["evidence"] for c in sel["candidates"])
 
 
 def test_jpeg_frame_is_accepted_as_well(service: Service, kitti_frame: np.ndarray) -> None:

@@ -71,3 +71,15 @@ def test_everything_pruned_is_an_error_that_says_why(kg: KnowledgeGraph) -> None
     programs.apply(kg, g, "block", author="test")
     with pytest.raises(NoCandidate, match="prune ORB when scene is indoor"):
         Advisor(kg).select({"scene": "indoor"})
+
+
+def test_current_snapshot_and_freshness(bare_kg: KnowledgeGraph) -> None:
+    advisor = Advisor(bare_kg, neural="symbolic", poll_interval_s=60)
+    assert advisor.current_snapshot() is None and not advisor.is_fresh()
+    advisor.select({"agent": "car"})
+    snap = advisor.current_snapshot()
+    assert snap is not None and snap.version == bare_kg.version and advisor.is_fresh()
+    bare_kg.add(parse_rdf('<urn:x> <urn:p> "1" .', format="nt"), author="test")  # a commit marks it stale
+    assert not advisor.is_fresh() and advisor.current_snapshot() is snap
+    advisor.select({"agent": "car"})
+    assert advisor.is_fresh() and advisor.current_snapshot().version == bare_kg.version  # type: ignore[union-attr]

@@ -14,12 +14,12 @@ KITTI = "kitti/sequences/00/image_0"
 def test_select_on_a_kitti_frame_and_a_stream_of_two(kg: KnowledgeGraph, data_dir: Path) -> None:
     files = sorted((data_dir / KITTI).glob("*.png"))
     f0, f1 = (cv2.imread(str(files[i]), cv2.IMREAD_GRAYSCALE) for i in (40, 41))
-    advisor = Advisor(kg)
+    advisor = Advisor(kg, neural="symbolic")  # F_metrics over every candidate
     vocab = kg.vocabulary()
     single = {m for m, s in vocab.metrics.items() if not s.temporal}
 
     first = advisor.select({"agent": "car"}, frame=f0)
-    assert first.mode in ("metrics", "selectornet")  # the shipped model decides where it validated
+    assert first.mode == "metrics"
     assert first.candidates and all(c.score is not None for c in first.candidates)
     assert {c.extractor for c in first.candidates} | {p.extractor for p in first.pruned} == set(vocab.extractors)
     for c in first.candidates:
@@ -35,7 +35,7 @@ def test_select_on_a_kitti_frame_and_a_stream_of_two(kg: KnowledgeGraph, data_di
     assert all(0.0 <= (context[d].confidence or 0.0) <= 1.0 and context[d].evidence for d in estimated)
 
     second = advisor.select({"agent": "car"}, frame=f1, previous=first.state)
-    assert second.mode in ("metrics", "selectornet")
+    assert second.mode == "metrics"
     assert {c.extractor for c in second.candidates} == {c.extractor for c in first.candidates}
     for c in second.candidates:
         assert set(c.metrics) == set(vocab.metrics)
@@ -61,3 +61,19 @@ def test_frame_statistics_are_computed_once_per_request(kg: KnowledgeGraph, data
     monkeypatch.setattr(context, "frame_statistics", counting)
     Advisor(kg, neural="paramnet").select({"agent": "car"}, frame=frame)
     assert calls == [frame.shape]  # context estimation and ParamNet share one computation on the frame
+
+
+def test_when_selectornet_decides_the_extractors_it_never_saw_are_not_extracted(kg: KnowledgeGraph, data_dir: Path) -> None:
+    image = cv2.imread(str(sorted((data_dir / KITTI).glob("*.png"))[40]), cv2.IMREAD_GRAYSCALE)
+    advisor = Advisor(kg, neural="selectornet")
+    known = advisor.neural.step(kg.vocabulary()).selector_extractors
+    sel = advisor.select({"agent": "car"}, frame=image)
+    assert sel.mode == "selectornet" and sel.extractor in known
+    assert abs(sum(c.score or 0.0 for c in sel.candidates) - 1.0) < 1e-6
+    for c in sel.candidates:
+        if c.extractor in known:
+            assert c.metrics and c.keypoints
+        else:  # probability 0 whatever its F_metrics: listed, not extracted
+            assert c.score == 0.0 and not c.metrics and c.keypoints is None and "not_scored" in c.evidence
+    assert set(known) - {c.extractor for c in sel.candidates} <= {p.extractor for p in sel.pruned}
+    assert set(sel.state.features) == {c.extractor for c in sel.candidates if c.keypoints}  # type: ignore[union-attr]
