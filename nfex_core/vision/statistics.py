@@ -1,7 +1,7 @@
 """Frame statistics: the cheap, resolution-independent numbers that context estimation reads.
 
 Every statistic is computed on a grey copy of the frame resized (INTER_AREA) so that its longer side is
-``ANALYSIS_SIDE`` px, so a 752×480 EuRoC frame, a 1241×376 KITTI frame and the advisor's ≤640-px scoring
+``ANALYSIS_SIDE`` px, so a 752×480 EuRoC frame, a 1241×376 KITTI frame and the advisor's QVGA-sized scoring
 image give comparable numbers. Keys are stable (ParamNet reads them as a vector): ``FRAME_KEYS`` always,
 ``FLOW_KEYS`` too, NaN-free — with no previous frame the flow keys are present with ``flow_valid = 0``.
 

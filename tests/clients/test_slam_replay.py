@@ -1,11 +1,9 @@
-"""The SLAM replay client over real KITTI 01 frames against the running service.
-
-Needs the VO, the loaders and the ATE (branches wt-vo / wt-data) and frame scoring (wt-vision); skips
-where this build lacks them."""
+"""The SLAM replay client over real KITTI 01 frames against the running service."""
 from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -13,12 +11,6 @@ from tests.service.conftest import Service
 
 ROOT = Path(__file__).resolve().parent.parent.parent
 sys.path.insert(0, str(ROOT / "clients" / "slam"))
-
-pytest.importorskip("nfex_core.vo")
-pytest.importorskip("nfex_core.datasets.kitti")
-pytest.importorskip("nfex_core.trajectory")
-pytest.importorskip("nfex_core.vision.metrics")
-pytest.importorskip("nfex_core.vision.context")
 
 
 @pytest.mark.slow
@@ -35,3 +27,36 @@ def test_replay_kitti01_through_a_session(service: Service, data_dir: Path, tmp_
     assert read_trajectory(tmp_path / "kitti01.tum", "tum").poses.shape == (20, 4, 4)
     assert len(res.feedback) == 2 and service.version() == before + 2
     assert res.failed or (res.ate_rmse is not None and res.ate_rmse >= 0)
+
+
+@pytest.mark.slow
+def test_replay_prints_the_ate_nfex_evaluate_reports(shipped_template: tuple[Path, Any], data_dir: Path, tmp_path: Path) -> None:
+    """The issue's check: through a running service (its own copy of the shipped graph) the replay's ATE
+    equals `nfex evaluate`'s for nfex (run 0) on another copy, frame for frame the same choices."""
+    import shutil
+
+    from nfex_slam import replay
+
+    from nfex_core.datasets import open_sequence
+    from nfex_core.evaluation import evaluate
+    from nfex_core.kg import KnowledgeGraph
+    from tests.conftest import stop_process
+    from tests.service.conftest import start_service
+
+    template, settings = shipped_template
+    for name in ("served", "local"):
+        shutil.copytree(template, tmp_path / name, ignore=shutil.ignore_patterns("LOCK"))
+    seq = open_sequence(data_dir / "kitti", "kitti", "01")
+    svc = start_service(str(tmp_path / "served"), tmp_path / "service.log")
+    try:
+        res = replay(svc.url, seq, tmp_path / "kitti01.tum", frames=20, report=False, seed=0)
+    finally:
+        stop_process(svc.proc)
+    kg = KnowledgeGraph.open(str(tmp_path / "local"), settings=settings, seed=False)
+    try:
+        [run] = evaluate(seq, kg, methods=["nfex"], runs=1, frames=20).records
+    finally:
+        kg.close()
+    assert [s["extractor"] for s in res.selections] == [s["extractor"] for s in run.selections]
+    assert [s["params"] for s in res.selections] == [s["params"] for s in run.selections]
+    assert res.ate_rmse is not None and res.ate_rmse == pytest.approx(run.ate_rmse, abs=1e-9)

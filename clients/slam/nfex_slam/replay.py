@@ -124,12 +124,14 @@ def replay(
     frames: int | None = None,
     report: bool = True,
     client: NfexClient | None = None,
+    seed: int = 0,
 ) -> ReplayResult:
-    """Run the VO over ``sequence`` through a session; report feedback per window; write TUM; return ATE."""
-    import cv2
+    """Run the VO over ``sequence`` through a session; report feedback per window; write TUM; return ATE.
 
+    ``seed`` is the VO's RANSAC draw (``VOParams.seed``): with seed r the run is the one ``nfex evaluate``
+    makes as its run r, so both print the same ATE on the same graph."""
     from nfex_core.trajectory import Trajectory, write_tum
-    from nfex_core.vo import run_vo
+    from nfex_core.vo import VOParams, run_vo
 
     own = client is None
     client = client or NfexClient(base_url)
@@ -138,9 +140,8 @@ def replay(
         ctx = {**{k: v for k, v in sequence.context.items() if v}, **dict(context or {})}
         session = client.open_session(ctx, client="nfex-slam-replay")
         chooser = ServiceChooser(client, session["id"])
-        cv2.setRNGSeed(0)  # RANSAC's draw, as `nfex evaluate` seeds its first run
         try:
-            result = run_vo(sequence, chooser, registry=registry, stop=frames)
+            result = run_vo(sequence, chooser, registry=registry, stop=frames, params=VOParams(seed=seed))
             feedback: list[dict[str, Any]] = []
             n = len(result.frames)
             size = window or n
@@ -170,6 +171,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--frames", type=int, help="replay only the first N frames")
     ap.add_argument("--context", action="append", default=[], metavar="DIM=VALUE")
     ap.add_argument("--no-feedback", action="store_true")
+    ap.add_argument("--seed", type=int, default=0, help="RANSAC draw: `nfex evaluate`'s run number (default 0)")
     args = ap.parse_args(argv)
 
     from nfex_core.datasets import open_sequence
@@ -177,7 +179,7 @@ def main(argv: list[str] | None = None) -> int:
     context = dict(item.split("=", 1) for item in args.context)
     seq = open_sequence(args.path, args.format, args.sequence)
     res = replay(args.service, seq, args.out, context=context, window=args.window, frames=args.frames,
-                 report=not args.no_feedback)
+                 report=not args.no_feedback, seed=args.seed)
     used = Counter(s["extractor"] for s in res.selections)
     print(f"{seq.key}: {res.frames} frames, {res.lost} lost, extractors {dict(used)}, trajectory {res.trajectory}")
     for fb in res.feedback:

@@ -56,3 +56,15 @@ def test_a_pruned_extractor_is_never_chosen(logits: list[float], allowed: set[st
     assert set(p) == allowed
     assert abs(sum(p.values()) - 1.0) < 1e-9
     assert max(p, key=p.__getitem__) in allowed
+
+
+def test_the_blank_image_embedding_is_cached_and_equal_to_computing_it() -> None:
+    net = SelectorNet(init_weights(5, 3, seed=3))
+    blank = np.zeros((48, 160), np.float32)
+    first = net.embed(blank)
+    assert net.embed(blank) is first  # computed once per shape
+    np.testing.assert_array_equal(first, net._embed(blank))
+    other = net.embed(np.zeros((24, 80), np.float32))
+    np.testing.assert_array_equal(other, net._embed(np.zeros((24, 80), np.float32)))
+    image = np.random.default_rng(0).random((48, 160)).astype(np.float32)
+    assert not np.array_equal(net.embed(image), first)  # a real frame is not taken for the blank one
