@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..datasets.base import Frame
 from ..errors import BadInput
+from ..kg.terms import py
 from ..vo import Choice, Chooser, FrameRecord, fixed
 
 if TYPE_CHECKING:
@@ -53,13 +54,10 @@ def best_params(
     settings = kg.select(
         f"SELECT ?name ?v WHERE {{ <{cfg}> nfex:hasSetting ?s . ?s nfex:parameter/nfex:opencvName ?name ; nfex:value ?v }}"
     ).rows
-    params = {str(r["name"]): _py(r["v"]) for r in settings}
-    n = int(_py(rows[0]["n"]))
-    return params, f"sweep: {cfg} mean ATE {float(_py(rows[0]['mean'])):.3f} m over {n} windows"
+    params = {str(r["name"]): py(r["v"]) for r in settings}
+    n = int(py(rows[0]["n"]))
+    return params, f"sweep: {cfg} mean ATE {float(py(rows[0]['mean'])):.3f} m over {n} windows"
 
-
-def _py(term: Any) -> Any:
-    return term.toPython()
 
 
 @dataclass

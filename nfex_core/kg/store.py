@@ -33,7 +33,7 @@ from ..namespaces import NFEX, PREFIXES
 from . import validation
 from .backends import Backend, SelectResult, open_backend
 from .changes import ChangeSet, graph_triples
-from .terms import Triple, n3, triple_n3
+from .terms import Triple, n3, py, triple_n3
 
 META = URIRef("urn:nfex:meta")
 CLAIM_TTL_S = 60.0
@@ -141,7 +141,7 @@ class KnowledgeGraph:
         res = self.backend.select(
             f"SELECT ?v WHERE {{ GRAPH {n3(META)} {{ {n3(HEAD)} {n3(NFEX.versionNumber)} ?v }} }}"
         )
-        values = [int(r["v"].toPython()) for r in res.rows]
+        values = [int(py(r["v"])) for r in res.rows]
         return max(values) if values else 0
 
     def select(self, query: str, *, prefixes: bool = True) -> SelectResult:
@@ -165,7 +165,7 @@ class KnowledgeGraph:
 
     def triple_count(self) -> int:
         res = self.backend.select("SELECT (COUNT(*) AS ?n) WHERE { ?s ?p ?o }")
-        return int(res.rows[0]["n"].toPython())
+        return int(py(res.rows[0]["n"]))
 
     def on_commit(self, listener: Callable[[int], None]) -> None:
         """Call ``listener(new_version)`` after every commit made through this object."""
@@ -376,12 +376,12 @@ class KnowledgeGraph:
         rows = self.select(q).rows
         return [
             Version(
-                number=int(r["n"].toPython()),
+                number=int(py(r["n"])),
                 author=str(r["author"]),
-                time=r["time"].toPython() if isinstance(r["time"].toPython(), datetime) else None,
+                time=t if isinstance(t := py(r["time"]), datetime) else None,
                 message=str(r["msg"]),
-                added=int(r["a"].toPython()),
-                removed=int(r["r"].toPython()),
+                added=int(py(r["a"])),
+                removed=int(py(r["r"])),
             )
             for r in rows
         ]

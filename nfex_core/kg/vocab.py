@@ -15,6 +15,7 @@ from rdflib.namespace import XSD
 from rdflib.term import Literal, URIRef
 
 from ..errors import ParameterError, UnknownName
+from .terms import py
 
 if TYPE_CHECKING:
     from .store import KnowledgeGraph
@@ -236,7 +237,7 @@ class Vocabulary:
         ).rows
         allowed: dict[URIRef, list[Value]] = {}
         for r in kg.select("SELECT ?p ?a WHERE { ?p a nfex:Parameter ; nfex:allowedValue ?a }").rows:
-            allowed.setdefault(r["p"], []).append(_py(r["a"]))  # type: ignore[arg-type]
+            allowed.setdefault(r["p"], []).append(py(r["a"]))  # type: ignore[arg-type]
         for r in prow:
             dt = str(r["dt"]).rsplit("#", 1)[-1]
             spec = ParameterSpec(
@@ -249,8 +250,8 @@ class Vocabulary:
                 min=_typed(r["min"], dt) if "min" in r else None,
                 max=_typed(r["max"], dt) if "max" in r else None,
                 allowed=tuple(sorted(_typed_value(a, dt) for a in allowed[r["p"]])) if r["p"] in allowed else None,  # type: ignore[index]
-                tunable=bool(_py(r["tunable"])) if "tunable" in r else False,
-                scales_with_resolution=bool(_py(r["scales"])) if "scales" in r else False,
+                tunable=bool(py(r["tunable"])) if "tunable" in r else False,
+                scales_with_resolution=bool(py(r["scales"])) if "scales" in r else False,
                 grid_role=str(r["grid"]) if "grid" in r else None,
                 label=str(r.get("label", "")),
                 comment=str(r.get("comment", "")),
@@ -305,7 +306,7 @@ class Vocabulary:
                 dimension=str(r["dname"]),
                 name=str(r["name"]),
                 label=str(r.get("label", "")),
-                ordinal=int(_py(r["ord"])) if "ord" in r else None,
+                ordinal=int(py(r["ord"])) if "ord" in r else None,
             )
             values.setdefault(spec.dimension, {})[spec.name] = spec
         dimensions: dict[str, DimensionSpec] = {}
@@ -320,7 +321,7 @@ class Vocabulary:
                 iri=r["d"],  # type: ignore[arg-type]
                 name=name,
                 label=str(r.get("label", name)),
-                estimable=bool(_py(r["est"])) if "est" in r else False,
+                estimable=bool(py(r["est"])) if "est" in r else False,
                 values=values.get(name, {}),
             )
         order = ["agent", "motion", "scene", "light", "reflectance", "texture"]
@@ -339,8 +340,8 @@ class Vocabulary:
                 name=name,
                 symbol=str(r["symbol"]),
                 label=str(r.get("label", name)),
-                temporal=bool(_py(r["temporal"])),
-                higher_is_better=bool(_py(r["hib"])) if "hib" in r else True,
+                temporal=bool(py(r["temporal"])),
+                higher_is_better=bool(py(r["hib"])) if "hib" in r else True,
                 formula=str(r.get("formula", "")),
             )
         by_iri: dict[URIRef, object] = {}
@@ -356,9 +357,6 @@ class Vocabulary:
             by_iri[m.iri] = m
         return cls(version=version, extractors=extractors, dimensions=dimensions, metrics=metrics, by_iri=by_iri)
 
-
-def _py(term: object) -> Any:
-    return term.toPython() if isinstance(term, Literal) else term
 
 
 def _parse_number(text: str) -> Value:
@@ -377,4 +375,4 @@ def _typed_value(v: Value, dt: str) -> Value:
 
 
 def _typed(term: object, dt: str) -> Value:
-    return _typed_value(_py(term), dt)
+    return _typed_value(py(term), dt)

@@ -28,7 +28,7 @@ from ..config import Settings
 from ..errors import BadInput, ParseError
 from ..kg.changes import read_rdf_file
 from ..kg.seed import seed_source
-from ..kg.terms import n3
+from ..kg.terms import n3, py
 from ..namespaces import NFEX
 
 if TYPE_CHECKING:
@@ -150,5 +150,5 @@ def evaluate(
     for r in rows:
         if "extractor" not in r or not isinstance(r["extractor"], URIRef):
             continue
-        out.setdefault(int(r["ctx"].toPython()), []).append((r["extractor"], str(r.get("reason", rule.label))))
+        out.setdefault(int(py(r["ctx"])), []).append((r["extractor"], str(r.get("reason", rule.label))))
     return out

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 from rdflib.term import Literal, URIRef
 
+from ..kg.terms import py
 from ..kg.vocab import Vocabulary
 
 if TYPE_CHECKING:
@@ -61,9 +62,6 @@ class Statement:
         return all(a.holds(context) for a in self.atoms)
 
 
-def _py(term: object) -> object:
-    return term.toPython() if isinstance(term, Literal) else term
-
 
 def load_statements(kg: KnowledgeGraph, vocab: Vocabulary) -> list[Statement]:
     """Every enabled statement of every program, in program order."""
@@ -87,7 +85,7 @@ def load_statements(kg: KnowledgeGraph, vocab: Vocabulary) -> list[Statement]:
             OPTIONAL { ?a nfex:negated ?neg }
         }"""
     ).rows:
-        entry = atoms.setdefault(r["s"], {}).setdefault(r["a"], (str(r["dim"]), set(), bool(_py(r.get("neg", Literal(False))))))  # type: ignore[arg-type]
+        entry = atoms.setdefault(r["s"], {}).setdefault(r["a"], (str(r["dim"]), set(), bool(py(r.get("neg", Literal(False))))))  # type: ignore[arg-type]
         entry[1].add(str(r["v"]))
 
     out: list[Statement] = []
@@ -101,7 +99,7 @@ def load_statements(kg: KnowledgeGraph, vocab: Vocabulary) -> list[Statement]:
             extractor, parameter = spec.extractor, spec.name  # type: ignore[attr-defined]
         if "m" in r and r["m"] in vocab.by_iri:
             metric = vocab.by_iri[r["m"]].name  # type: ignore[attr-defined]
-        value = next((_py(r[k]) for k in ("factor", "weight", "bonus", "bound") if k in r), None)
+        value = next((py(r[k]) for k in ("factor", "weight", "bonus", "bound") if k in r), None)
         source = None
         if "file" in r:
             source = f"{r['file']}:{r['line']}" if "line" in r else str(r["file"])
@@ -113,13 +111,13 @@ def load_statements(kg: KnowledgeGraph, vocab: Vocabulary) -> list[Statement]:
                 label=label,
                 reason=str(r.get("reason", label)),
                 program=str(r["program"]),
-                order=int(_py(r["order"])) if "order" in r else 0,  # type: ignore[call-overload]
+                order=int(py(r["order"])) if "order" in r else 0,
                 atoms=tuple(Atom(d, frozenset(vs), neg) for d, vs, neg in atoms.get(r["s"], {}).values()),
                 source=source,
                 extractor=extractor,
                 parameter=parameter,
                 metric=metric,
-                value=value,  # type: ignore[arg-type]
+                value=value,
                 comparator=str(r["cmp"]) if "cmp" in r else None,
                 shape=r.get("shape"),  # type: ignore[arg-type]
             )
