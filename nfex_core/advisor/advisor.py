@@ -324,26 +324,15 @@ class Advisor:
         stats: Mapping[str, float] | None,
     ) -> tuple[list[ContextEntry], dict[str, str | None]]:
         """Given dimensions win; estimable ones are estimated from the frame; the rest stay unknown."""
-        estimates: dict[str, ContextEntry] = {}
         if image is not None:
             from ..vision.context import estimate_context
 
             prev = previous.image if previous is not None else None
-            ctx = estimate_context(vocab, given, image, prev, stats=stats)
-            for e in ctx.entries():
-                estimates[e.dimension] = ContextEntry(e.dimension, e.value, e.source, e.confidence, e.evidence)
-        entries: list[ContextEntry] = []
-        values: dict[str, str | None] = {}
-        for dim in vocab.dimensions:
-            if dim in given:
-                entry = ContextEntry(dim, given[dim], "given", 1.0)
-            elif dim in estimates and estimates[dim].value is not None:
-                entry = estimates[dim]
-            else:
-                entry = ContextEntry(dim, None, "unknown")
-            entries.append(entry)
-            values[dim] = entry.value
-        return entries, values
+            entries = list(estimate_context(vocab, given, image, prev, stats=stats).entries())
+        else:
+            entries = [ContextEntry(d, given[d], "given", 1.0) if d in given else ContextEntry(d, None, "unknown")
+                       for d in vocab.dimensions]
+        return entries, {e.dimension: e.value for e in entries}
 
     def _score(
         self,

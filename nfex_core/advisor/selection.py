@@ -7,21 +7,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+from ..context import ContextEntry
 from ..fitness import Adjustment
 from ..kg.vocab import Value
 from ..rules.engine import Citation, Factor
 
-
-@dataclass(frozen=True)
-class ContextEntry:
-    dimension: str
-    value: str | None
-    source: str  # "given" | "estimated" | "unknown"
-    confidence: float | None = None
-    evidence: str | None = None  # what an estimate was based on
-
-    def as_dict(self) -> dict[str, Any]:
-        return {k: v for k, v in self.__dict__.items() if v is not None or k == "value"}
+__all__ = ["CandidateScore", "ContextEntry", "PrunedCandidate", "Selection"]
 
 
 @dataclass(frozen=True)

@@ -29,10 +29,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..context import ContextEntry
 from ..kg.vocab import Vocabulary
 from .statistics import FLOW_KEYS, FRAME_KEYS, frame_statistics
 
-__all__ = ["Context", "Estimate", "estimate_context", "frame_statistics", "FRAME_KEYS", "FLOW_KEYS", "THRESHOLDS"]
+__all__ = ["Context", "ContextEntry", "estimate_context", "frame_statistics", "FRAME_KEYS", "FLOW_KEYS", "THRESHOLDS"]
 
 THRESHOLDS: dict[str, float] = {
     "light.dark_mean": 42.0,
@@ -47,30 +48,19 @@ THRESHOLDS: dict[str, float] = {
 
 
 @dataclass(frozen=True)
-class Estimate:
-    """One dimension of the context: its value, where it came from and how sure that is."""
-
-    dimension: str
-    value: str | None
-    source: str  # "given" | "estimated" | "unknown"
-    confidence: float | None = None
-    evidence: str | None = None
-
-
-@dataclass(frozen=True)
 class Context:
     """The condition dimensions E of one frame, in the graph's order, with the statistics they came from."""
 
-    estimates: tuple[Estimate, ...]
+    estimates: tuple[ContextEntry, ...]
     statistics: Mapping[str, float]
 
-    def entries(self) -> tuple[Estimate, ...]:
+    def entries(self) -> tuple[ContextEntry, ...]:
         return self.estimates
 
     def values(self) -> dict[str, str | None]:
         return {e.dimension: e.value for e in self.estimates}
 
-    def get(self, dimension: str) -> Estimate | None:
+    def get(self, dimension: str) -> ContextEntry | None:
         return next((e for e in self.estimates if e.dimension == dimension), None)
 
 
@@ -143,19 +133,19 @@ def estimate_context(
     """
     if stats is None:
         stats = frame_statistics(image, previous_image)
-    out: list[Estimate] = []
+    out: list[ContextEntry] = []
     for name, dim in vocab.dimensions.items():
         value = given.get(name)
         if value is not None:
-            out.append(Estimate(name, str(value), "given", 1.0))
+            out.append(ContextEntry(name, str(value), "given", 1.0))
             continue
         estimator = ESTIMATORS.get(name)
         if not dim.estimable or estimator is None:
-            out.append(Estimate(name, None, "unknown"))
+            out.append(ContextEntry(name, None, "unknown"))
             continue
         label, conf, evidence = estimator(stats, previous_image is not None)
         if label not in dim.values:
-            out.append(Estimate(name, None, "unknown", evidence=f"estimated {label!r}, not a value of {name} in the graph"))
+            out.append(ContextEntry(name, None, "unknown", evidence=f"estimated {label!r}, not a value of {name} in the graph"))
             continue
-        out.append(Estimate(name, label, "estimated", conf, evidence))
+        out.append(ContextEntry(name, label, "estimated", conf, evidence))
     return Context(tuple(out), stats)
