@@ -43,8 +43,16 @@ MEASURED_COSTS = """SELECT ?cfg ?xname ?w ?h (AVG(?ms) AS ?mean) (COUNT(?m) AS ?
 
 MEASURED_SETTINGS = """SELECT ?cfg ?name ?v WHERE {
     ?cfg a nfex:Configuration ; nfex:hasSetting ?s . ?s nfex:parameter/nfex:opencvName ?name ; nfex:value ?v .
-    FILTER EXISTS { ?m sosa:usedProcedure ?cfg ; nfex:extractionMs ?ms }
+    FILTER EXISTS { ?m a nfex:Measurement ; sosa:usedProcedure ?cfg }
 }"""
+
+
+def measured_settings(kg: KnowledgeGraph) -> dict[str, dict[str, Value]]:
+    """Configuration IRI → {OpenCV name: value} for every configuration a Measurement used."""
+    settings: dict[str, dict[str, Value]] = {}
+    for r in kg.select(MEASURED_SETTINGS).rows:
+        settings.setdefault(str(r["cfg"]), {})[str(r["name"])] = py(r["v"])
+    return settings
 
 
 def expected_cost_query(configuration: str, extractor: str, width: int, height: int) -> str:
@@ -233,11 +241,13 @@ def fit_extractor(spec: ExtractorSpec, rows: list[tuple[dict[str, Value], int, f
     )
 
 
-def fit_cost_model(kg: KnowledgeGraph, extractors: Mapping[str, ExtractorSpec]) -> CostModel:
-    """The cost model for the graph's current Measurements (two SPARQL queries, then least squares)."""
-    settings: dict[str, dict[str, Value]] = {}
-    for r in kg.select(MEASURED_SETTINGS).rows:
-        settings.setdefault(str(r["cfg"]), {})[str(r["name"])] = py(r["v"])
+def fit_cost_model(
+    kg: KnowledgeGraph, extractors: Mapping[str, ExtractorSpec], settings: Mapping[str, Mapping[str, Value]] | None = None
+) -> CostModel:
+    """The cost model for the graph's current Measurements (SPARQL for the times, then least squares);
+    ``settings``: ``measured_settings(kg)`` when the caller has read them already."""
+    if settings is None:
+        settings = measured_settings(kg)
     model = CostModel()
     per_x: dict[str, list[tuple[dict[str, Value], int, float, int]]] = {}
     sizes: dict[tuple[int, int], int] = {}

@@ -285,9 +285,8 @@ class Advisor:
 
         def admit(x: str) -> bool:
             spec = snap.vocab.extractor(x)
-            found = measured_params(spec, measured[x], conditions, snap.table.cost, budget) if x in measured else None
-            if found is not None:
-                params, adj, config, cite = found
+            if x in measured:
+                params, adj, config, cite = measured_params(spec, measured[x], conditions, snap.table.cost, budget)
                 used[x] = (config, cite)
             elif nn.covers(x):
                 params, adj = nn.params(spec, pixels)

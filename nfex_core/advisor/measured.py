@@ -34,29 +34,22 @@ def measured_params(
     conditions: str,
     cost: CostModel | None = None,
     budget: Budget | None = None,
-) -> tuple[dict[str, Value], list[Adjustment], MeasuredConfiguration, Citation] | None:
-    """Θ′ from ``ranked`` (lowest mean ATE first; ``conditions`` names the context for the reason), the
-    adjustments from the defaults citing the measurement, the configuration chosen and the citation (also
-    when Θ′ is the defaults); None when no ranked configuration is valid for the graph's parameter ranges."""
-    usable: list[tuple[MeasuredConfiguration, dict[str, Value]]] = []
-    for c in ranked:
-        try:
-            usable.append((c, spec.resolve(dict(c.params))))
-        except Exception:  # measured under a parameter range the graph no longer allows
-            continue
-    if not usable:
-        return None
-    chosen, theta = usable[0]
-    note = f"the lowest of {len(usable)} measured configurations"
+) -> tuple[dict[str, Value], list[Adjustment], MeasuredConfiguration, Citation]:
+    """Θ′ from ``ranked`` (lowest mean ATE first, each a full Θ valid in the graph; ``conditions`` names
+    the context for the reason), the adjustments from the defaults citing the measurement, the
+    configuration chosen and the citation (also when Θ′ is the defaults)."""
+    chosen = ranked[0]
+    note = f"the lowest of {len(ranked)} measured configurations"
     if budget is not None and cost is not None:
-        for c, params in usable:
-            e = expected(cost, spec, params, budget)
+        for c in ranked:
+            e = expected(cost, spec, c.params, budget)
             if e.ms is not None and e.ms <= budget.ms:
                 if c is not chosen:
                     note = (f"the lowest of the measured configurations whose expected {e.ms:.1f} ms fits "
-                            f"the budget {budget.ms:g} ms (the best, {usable[0][0].mean_ate:.3f} m, does not)")
-                chosen, theta = c, params
+                            f"the budget {budget.ms:g} ms (the best, {chosen.mean_ate:.3f} m, does not)")
+                chosen = c
                 break
+    theta = dict(chosen.params)
     cite = Citation(
         MEASURED_RULE,
         MEASURED_LABEL,

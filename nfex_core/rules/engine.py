@@ -26,9 +26,10 @@ from typing import TYPE_CHECKING, Any
 
 from rdflib.term import URIRef
 
-from ..cost import BudgetTerms, CostModel, fit_cost_model
+from ..cost import BudgetTerms, CostModel, fit_cost_model, measured_settings
+from ..errors import NfexError
 from ..kg.terms import py
-from ..kg.vocab import Value
+from ..kg.vocab import ExtractorSpec, Value
 from . import pruning
 from .statements import Statement, load_statements
 
@@ -74,15 +75,20 @@ class MeasuredConfiguration:
     """A configuration of an extractor and its measured accuracy under a context's known conditions."""
 
     iri: str
-    params: Mapping[str, Value]  # OpenCV argument names → values, as measured
+    params: Mapping[str, Value]  # the full Θ: OpenCV argument names → values, valid in the graph's ranges
     mean_ate: float
     windows: int  # measurements that count under the context
 
 
 @dataclass(frozen=True)
 class _Measured:
+    """One Measurement as the engine reads it (once per graph version, ``_measurements``)."""
+
+    extractor: str
+    configuration: str
     conditions: frozenset[tuple[str, str]]  # (dimension, value) of every condition the measurement was under
     ate: float | None  # None: the window failed
+    extraction_ms: float | None
 
 
 @dataclass(frozen=True)
@@ -112,7 +118,7 @@ class RuleTable:
     compile_ms: float
     cost: CostModel = field(default_factory=CostModel)
     budget_terms: BudgetTerms = field(default_factory=BudgetTerms)
-    # extractor → configuration IRI → (Θ as measured, its measurements); see ``measured``
+    # extractor → configuration IRI → (its full Θ, its measurements); see ``measured``
     configurations: dict[str, dict[str, tuple[dict[str, Value], list[_Measured]]]] = field(default_factory=dict)
     min_measurements: int = 3
     _measured: dict[ContextKey, dict[str, tuple[MeasuredConfiguration, ...]]] = field(default_factory=dict, repr=False)
@@ -153,54 +159,64 @@ class RuleTable:
         return found
 
 
-def _evidence(kg: KnowledgeGraph) -> dict[tuple[str, str, str], tuple[float | None, int, float | None]]:
-    """(extractor, dimension, value) → (mean ATE, windows, mean extraction ms) over all measurements.
-
-    Means over the measurements that have the value (a failed window has no ATE): AVG over an OPTIONAL
-    would be unbound as soon as one measurement lacks it."""
-    rows = kg.select(
-        """SELECT ?xname ?dim ?val (SUM(COALESCE(?ate, 0)) / COUNT(?ate) AS ?mean) (COUNT(?m) AS ?n)
-                  (SUM(COALESCE(?ms, 0)) / COUNT(?ms) AS ?cost) WHERE {
-            ?m a nfex:Measurement ; sosa:usedProcedure/nfex:ofExtractor/nfex:token ?xname ;
-               nfex:underCondition ?c .
-            ?c nfex:token ?val ; nfex:inDimension/nfex:token ?dim .
-            OPTIONAL { ?m nfex:ateRmse ?ate } OPTIONAL { ?m nfex:extractionMs ?ms }
-        } GROUP BY ?xname ?dim ?val"""
-    ).rows
-    out: dict[tuple[str, str, str], tuple[float | None, int, float | None]] = {}
-    for r in rows:
-        mean = float(py(r["mean"])) if "mean" in r else None
-        cost = float(py(r["cost"])) if "cost" in r else None
-        out[(str(r["xname"]), str(r["dim"]), str(r["val"]))] = (mean, int(py(r["n"])), cost)
-    return out
-
-
-def _configurations(kg: KnowledgeGraph) -> dict[str, dict[str, tuple[dict[str, Value], list[_Measured]]]]:
-    """Every measured configuration with its settings and, per measurement, its conditions and ATE."""
-    settings: dict[str, dict[str, Value]] = {}
+def _measurements(kg: KnowledgeGraph) -> list[_Measured]:
+    """Every Measurement: extractor, configuration, conditions, ATE (absent: failed), extraction ms."""
+    per: dict[str, tuple[str, str, set[tuple[str, str]], float | None, float | None]] = {}
     for r in kg.select(
-        """SELECT ?cfg ?name ?v WHERE { ?cfg a nfex:Configuration ; nfex:hasSetting ?s .
-               ?s nfex:parameter/nfex:opencvName ?name ; nfex:value ?v .
-               FILTER EXISTS { ?m a nfex:Measurement ; sosa:usedProcedure ?cfg } }"""
-    ).rows:
-        settings.setdefault(str(r["cfg"]), {})[str(r["name"])] = py(r["v"])
-    per: dict[tuple[str, str, str], tuple[set[tuple[str, str]], float | None]] = {}
-    for r in kg.select(
-        """SELECT ?xname ?cfg ?m ?dim ?val ?ate WHERE {
+        """SELECT ?xname ?cfg ?m ?dim ?val ?ate ?ms WHERE {
             ?m a nfex:Measurement ; sosa:usedProcedure ?cfg .
             ?cfg nfex:ofExtractor/nfex:token ?xname .
             OPTIONAL { ?m nfex:underCondition ?c . ?c nfex:token ?val ; nfex:inDimension/nfex:token ?dim . }
-            OPTIONAL { ?m nfex:ateRmse ?ate }
+            OPTIONAL { ?m nfex:ateRmse ?ate } OPTIONAL { ?m nfex:extractionMs ?ms }
         }"""
     ).rows:
-        k = (str(r["xname"]), str(r["cfg"]), str(r["m"]))
-        conds, ate = per.setdefault(k, (set(), float(py(r["ate"])) if "ate" in r else None))
+        entry = per.setdefault(str(r["m"]), (
+            str(r["xname"]), str(r["cfg"]), set(),
+            float(py(r["ate"])) if "ate" in r else None, float(py(r["ms"])) if "ms" in r else None,
+        ))
         if "dim" in r:
-            conds.add((str(r["dim"]), str(r["val"])))
+            entry[2].add((str(r["dim"]), str(r["val"])))
+    return [_Measured(x, cfg, frozenset(conds), ate, ms) for x, cfg, conds, ate, ms in per.values()]
+
+
+def _evidence(measurements: list[_Measured]) -> dict[tuple[str, str, str], tuple[float | None, int, float | None]]:
+    """(extractor, dimension, value) → (mean ATE, windows, mean extraction ms) over the measurements under
+    that value; the means over those that have one (a failed window has no ATE)."""
+    sums: dict[tuple[str, str, str], list[float]] = {}
+    for m in measurements:
+        for d, v in m.conditions:
+            acc = sums.setdefault((m.extractor, d, v), [0, 0.0, 0, 0.0, 0])
+            acc[0] += 1
+            if m.ate is not None:
+                acc[1] += m.ate
+                acc[2] += 1
+            if m.extraction_ms is not None:
+                acc[3] += m.extraction_ms
+                acc[4] += 1
+    return {k: (a[1] / a[2] if a[2] else None, int(a[0]), a[3] / a[4] if a[4] else None) for k, a in sums.items()}
+
+
+def _configurations(
+    measurements: list[_Measured], settings: Mapping[str, Mapping[str, Value]], extractors: Mapping[str, ExtractorSpec]
+) -> dict[str, dict[str, tuple[dict[str, Value], list[_Measured]]]]:
+    """Per extractor and configuration: its full Θ (resolved against the graph's ranges once, here) and
+    its measurements. A configuration the current ranges no longer allow is left out."""
     out: dict[str, dict[str, tuple[dict[str, Value], list[_Measured]]]] = {}
-    for (x, cfg, _m), (conds, ate) in per.items():
-        entry = out.setdefault(x, {}).setdefault(cfg, (settings.get(cfg, {}), []))
-        entry[1].append(_Measured(frozenset(conds), ate))
+    invalid: set[str] = set()
+    for m in measurements:
+        spec = extractors.get(m.extractor)
+        if spec is None or m.configuration in invalid:
+            continue
+        entry = out.get(m.extractor, {}).get(m.configuration)
+        if entry is None:
+            try:
+                theta = spec.resolve(settings.get(m.configuration, {}))
+            except NfexError as e:
+                log.warning("measured configuration %s left out: %s", m.configuration, e)
+                invalid.add(m.configuration)
+                continue
+            entry = out.setdefault(m.extractor, {})[m.configuration] = (theta, [])
+        entry[1].append(m)
     return out
 
 
@@ -253,7 +269,8 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
 
     shapes, shape_errors = load_context_shapes(kg, vocab, statements)
     errors += shape_errors
-    evidence = _evidence(kg)
+    measurements = _measurements(kg)
+    evidence = _evidence(measurements)
     decisions: dict[ContextKey, Decision] = {}
     for i, key in enumerate(keys):
         context = dict(zip(dims, key, strict=True))
@@ -299,9 +316,10 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
             evidence={x: e for x, e in ev.items() if e.windows},
             shapes=in_force,
         )
-    cost = fit_cost_model(kg, vocab.extractors)
+    settings = measured_settings(kg)
+    cost = fit_cost_model(kg, vocab.extractors, settings)
     budget_terms = BudgetTerms.load(kg)
-    configurations = _configurations(kg) if _measured_rule_enabled(kg) else {}
+    configurations = _configurations(measurements, settings, vocab.extractors) if _measured_rule_enabled(kg) else {}
     least = _min_measurements(kg)
     ms = (time.perf_counter() - t0) * 1000
     log.info("compiled %d contexts, %d rules, %d statements at graph version %d in %.0f ms", len(keys), len(rules), len(statements), version, ms)
