@@ -147,18 +147,15 @@ class Advisor:
         return snap is not None and not self._dirty and time.monotonic() - snap.taken_at < self.poll_interval_s
 
     def snapshot(self) -> Snapshot:
-        snap = self._snapshot
-        now = time.monotonic()
-        if snap is not None and not self._dirty and now - snap.taken_at < self.poll_interval_s:
-            return snap
+        if self.is_fresh():
+            return self._snapshot  # type: ignore[return-value]
         with self._lock:
-            snap = self._snapshot
-            if snap is not None and not self._dirty and now - snap.taken_at < self.poll_interval_s:
-                return snap
+            if self.is_fresh():
+                return self._snapshot  # type: ignore[return-value]
             self._dirty = False
-            version = self.kg.version
+            snap, version = self._snapshot, self.kg.version
             if snap is not None and snap.version == version:
-                snap.taken_at = now
+                snap.taken_at = time.monotonic()
                 return snap
             self._snapshot = snap = self._build()
             return snap

@@ -73,6 +73,7 @@ class SelectorNet:
         object.__setattr__(self, "_w", {k: np.ascontiguousarray(v, np.float32) for k, v in self.weights.items()})
         object.__setattr__(self, "_conv", {n: conv_matrix(self.weights[f"{n}.weight"]) for n in CONVS})
         object.__setattr__(self, "_fct", [np.ascontiguousarray(self.weights[f"{n}.weight"].T, np.float32) for n in FCS])
+        object.__setattr__(self, "_blank", {})  # image shape → g of the all-zero image (``embed``)
 
     @property
     def n_numeric(self) -> int:
@@ -86,7 +87,7 @@ class SelectorNet:
         """The CNN branch: H×W image in [0, 1] → the pooled feature vector g. A request without a frame
         sends the all-zero image: its g is computed once per network and shape (0.2 ms a request otherwise)."""
         if not image.any():
-            cache = self.__dict__.setdefault("_blank", {})
+            cache = self._blank  # type: ignore[attr-defined]
             g = cache.get(image.shape)
             if g is None:
                 g = cache[image.shape] = self._embed(image)
