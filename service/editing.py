@@ -8,9 +8,10 @@ from fastapi import Request
 from rdflib.term import Node, URIRef
 
 from nfex_core.errors import BadInput
-from nfex_core.kg import ChangeSet, KnowledgeGraph, graph_triples, parse_rdf
+from nfex_core.kg import ChangeSet, KnowledgeGraph, parse_rdf
 from nfex_core.kg.terms import Triple, is_skolem, n3
 
+from .bodies import media_type
 from .images import UnsupportedMediaType
 
 RDF_BODY = {"text/turtle": "turtle", "application/n-triples": "nt", "application/ld+json": "json-ld", "application/rdf+xml": "xml"}
@@ -48,15 +49,11 @@ def replace(kg: KnowledgeGraph, old: set[Triple], new: frozenset[Triple] | set[T
 
 
 async def rdf_body(request: Request) -> rdflib.Graph:
-    media = request.headers.get("content-type", "").split(";")[0].strip().lower()
+    media = media_type(request.headers.get("content-type"))
     fmt = RDF_BODY.get(media)
     if fmt is None:
         raise UnsupportedMediaType(f"send RDF as one of {', '.join(RDF_BODY)}, not {media or 'nothing'!r}")
     return parse_rdf(await request.body(), format=fmt, source="the request body")
-
-
-def triples_of(graph: rdflib.Graph) -> frozenset[Triple]:
-    return graph_triples(graph)
 
 
 def turtle(triples: set[Triple]) -> str:

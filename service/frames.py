@@ -12,6 +12,7 @@ from starlette.datastructures import UploadFile
 from nfex_core.advisor import Advisor, FrameState, Selection
 from nfex_core.errors import BadInput, NfexError
 
+from .bodies import media_type
 from .config import Settings
 from .images import PayloadTooLarge, UnsupportedMediaType, decode_frame
 from .schemas import SelectRequest
@@ -40,7 +41,7 @@ def parse_context(text: str | bytes | None) -> dict[str, str | None]:
 
 async def read_select(request: Request, settings: Settings, *, frame_required: bool = False) -> tuple[dict[str, str | None], np.ndarray | None]:
     """(context, frame or None) from a JSON body or a multipart form with ``frame`` and ``context``."""
-    media = request.headers.get("content-type", "").split(";")[0].strip().lower()
+    media = media_type(request.headers.get("content-type"))
     if media == "application/json":
         body = await request.body()
         try:

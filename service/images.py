@@ -11,6 +11,8 @@ import numpy as np
 
 from nfex_core.errors import BadInput, NfexError
 
+from .bodies import media_type
+
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 JPEG_MAGIC = b"\xff\xd8\xff"
 ACCEPTED_TYPES = {"image/png", "image/jpeg", "image/jpg", "application/octet-stream", ""}
@@ -69,7 +71,7 @@ def image_size(data: bytes) -> tuple[str, int, int]:
 
 def decode_frame(data: bytes, content_type: str | None, *, max_bytes: int, max_pixels: int) -> np.ndarray:
     """A frame as a uint8 grey image (colour is converted; 16-bit is scaled), or a 4xx NfexError."""
-    media = (content_type or "").split(";")[0].strip().lower()
+    media = media_type(content_type)
     if media not in ACCEPTED_TYPES:
         raise UnsupportedMediaType(f"frame content type {media!r}; send image/png or image/jpeg")
     if not data:

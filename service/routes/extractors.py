@@ -14,12 +14,12 @@ from rdflib.namespace import RDFS
 from rdflib.term import Literal
 
 from nfex_core.errors import BadInput
-from nfex_core.kg import ChangeSet
+from nfex_core.kg import ChangeSet, graph_triples
 from nfex_core.kg.terms import is_skolem
 from nfex_core.namespaces import NFEX
 
 from ..deps import EditorDep, IfMatchDep, KGDep
-from ..editing import check_name, describe, rdf_body, replace, subjects_of, triples_of, turtle
+from ..editing import check_name, describe, rdf_body, replace, subjects_of, turtle
 from ..schemas import PROBLEM_RESPONSES, ParameterPatch, WriteResult
 
 router = APIRouter(prefix="/v1/extractors", tags=["editing: extractors"], responses=PROBLEM_RESPONSES)
@@ -70,7 +70,7 @@ def get_extractor(name: str, kg: KGDep, request: Request) -> Any:
 async def put_extractor(name: str, request: Request, kg: KGDep, token: EditorDep, expected: IfMatchDep) -> Response:
     check_name("extractor", name)
     body = await rdf_body(request)
-    new = triples_of(body)
+    new = graph_triples(body)
     vocab = kg.vocabulary()
     iri = vocab.extractors[name].iri if name in vocab.extractors else NFEX[name]
     params = {s for s, p, o in new if p == NFEX.parameterOf and o == iri}

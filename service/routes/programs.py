@@ -12,8 +12,9 @@ from typing import Any
 from fastapi import APIRouter, Request, Response
 from fastapi.concurrency import run_in_threadpool
 
-from nfex_core.errors import BadInput, NotFound
+from nfex_core.errors import NotFound
 
+from ..bodies import media_type, utf8_text
 from ..deps import EditorDep, IfMatchDep, KGDep
 from ..editing import check_name
 from ..frames import NotImplementedFeature
@@ -61,13 +62,10 @@ def get_program(name: str, kg: KGDep) -> dict[str, Any]:
 )
 async def put_program(name: str, request: Request, kg: KGDep, token: EditorDep, expected: IfMatchDep) -> Response:
     check_name("program", name)
-    media = request.headers.get("content-type", "").split(";")[0].strip().lower()
+    media = media_type(request.headers.get("content-type"))
     if media not in ("text/plain", "text/x-nfex"):
         raise UnsupportedMediaType(f"send the program as text/plain, not {media or 'nothing'!r}")
-    try:
-        text = (await request.body()).decode("utf-8")
-    except UnicodeDecodeError as e:
-        raise BadInput(f"the program is not UTF-8: {e}") from e
+    text = await utf8_text(request, "the program")
     dsl = _dsl()
 
     def work() -> tuple[bool, Any]:

@@ -21,6 +21,7 @@ from nfex_core.errors import BadInput
 from nfex_core.kg.backends import GRAPH_FORMATS, RESULT_FORMATS
 from nfex_core.kg.sparql_query import classify, with_prefixes
 
+from ..bodies import media_type, utf8_text
 from ..deps import EditorDep, IfMatchDep, KGDep
 from ..images import UnsupportedMediaType
 from ..schemas import WriteResult
@@ -95,12 +96,8 @@ async def sparql_get(request: Request, accept: Annotated[str | None, Header()] =
 
 
 async def _body_text(request: Request, field: str, direct: str) -> tuple[str | None, dict[str, list[str]]]:
-    media = request.headers.get("content-type", "").split(";")[0].strip().lower()
-    body = await request.body()
-    try:
-        text = body.decode("utf-8")
-    except UnicodeDecodeError as e:
-        raise BadInput(f"the body is not UTF-8: {e}") from e
+    media = media_type(request.headers.get("content-type"))
+    text = await utf8_text(request, "the body")
     if media == direct:
         return text, parse_qs(request.url.query)
     if media == "application/x-www-form-urlencoded":
