@@ -22,7 +22,7 @@ def evaluate(
     budget_ms: Annotated[list[float], typer.Option("--budget-ms", help="Also run nFEX at this per-frame budget (repeatable).")] = [],  # noqa: B006
     frames: Annotated[int | None, typer.Option(help="Only the first N frames (after --step).")] = None,
     step: Annotated[int, typer.Option(help="Every STEP-th frame (e.g. 3 for a 30 Hz handheld video).")] = 1,
-    out: Annotated[Path, typer.Option("--out", help="Folder for table.md, runs.csv, result.json and plots.")] = Path("out/evaluate"),
+    out: Annotated[Path, typer.Option("--out", help="Folder for table.md, runs.csv, selections.csv, result.json and plots.")] = Path("out/evaluate"),
     plots: Annotated[bool, typer.Option(help="Draw the plots.")] = True,
     json_out: Annotated[bool, typer.Option("--json", help="Print the result as JSON instead of the table.")] = False,
     progress: Annotated[bool, typer.Option(help="Show a progress bar.")] = True,
@@ -31,7 +31,7 @@ def evaluate(
     import json
 
     from ..datasets import open_sequence
-    from ..evaluation import METHODS, as_json, csv_text, markdown
+    from ..evaluation import METHODS, as_json, csv_text, markdown, selections_csv
     from ..evaluation import evaluate as run_evaluation
 
     chosen = list(split_values(methods)) or list(METHODS)
@@ -58,6 +58,7 @@ def evaluate(
     result = as_json(ev)
     (out / "table.md").write_text(md)
     (out / "runs.csv").write_text(csv_text(ev))
+    (out / "selections.csv").write_text(selections_csv(ev))
     if plots:
         from ..evaluation.plots import draw
 

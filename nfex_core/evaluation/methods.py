@@ -79,8 +79,13 @@ class AdvisorChooser:
         sel = self.advisor.select(ctx, frame.image, self._state, budget_ms=self.budget_ms)
         self._state = sel.state
         self._last = Choice(sel.extractor, dict(sel.params))
-        self.selections.append({"frame": frame.index, "extractor": sel.extractor, "params": sel.params,
-                                "pruned": [p.extractor for p in sel.pruned]})
+        self.selections.append({
+            "frame": frame.index, "extractor": sel.extractor, "params": sel.params, "mode": sel.mode,
+            "pruned": [p.extractor for p in sel.pruned],
+            "candidates": [{"extractor": c.extractor, "score": c.score, "f_metrics": c.evidence.get("f_metrics"),
+                            "measured_accuracy": c.evidence.get("measured_accuracy"),
+                            "mean_ate_m": c.evidence.get("mean_ate_m")} for c in sel.candidates],
+        })
         return self._last
 
 

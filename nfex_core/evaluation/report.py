@@ -60,6 +60,22 @@ def csv_text(ev: Evaluation) -> str:
     return buf.getvalue()
 
 
+def selections_csv(ev: Evaluation) -> str:
+    """nFEX's choice per frame and run with every candidate's score, F_metrics, measured accuracy A and
+    mean ATE: one row per (run, frame, candidate); empty when no run asked the advisor."""
+    buf = io.StringIO()
+    w = csv.writer(buf)
+    w.writerow(["method", "budget_ms", "corruption", "run", "frame", "chosen", "mode", "candidate", "score",
+                "f_metrics", "measured_accuracy", "mean_ate_m"])
+    for r in ev.records:
+        for sel in r.selections:
+            for c in sel.get("candidates", []):
+                w.writerow([r.method, "" if r.budget_ms is None else r.budget_ms, r.corruption, r.run, sel["frame"],
+                            sel["extractor"], sel["mode"], c["extractor"], *("" if c[k] is None else c[k] for k in
+                            ("score", "f_metrics", "measured_accuracy", "mean_ate_m"))])
+    return buf.getvalue()
+
+
 def as_json(ev: Evaluation) -> dict[str, Any]:
     methods: dict[str, Any] = {}
     for method, budget, recs in rows(ev):

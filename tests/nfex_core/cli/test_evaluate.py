@@ -20,6 +20,7 @@ def test_nfex_evaluate_json_and_files(cli_env: dict[str, str], data_dir: Path, t
     assert set(doc["methods"]) == {"orb-default", "orb-dyn"}
     assert (out / "table.md").read_text().startswith("| Method |")
     assert (out / "runs.csv").exists() and json.loads((out / "result.json").read_text())["sequence"] == "01"
+    assert (out / "selections.csv").read_text().startswith("method,budget_ms")  # header only: no nfex run
 
 
 def test_nfex_evaluate_unknown_method_exits_2(cli_env: dict[str, str], data_dir: Path, tmp_path: Path) -> None:
