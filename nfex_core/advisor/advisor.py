@@ -21,9 +21,10 @@ Measured accuracy (beyond the paper, in both modes): with A(x) = min_{y ∈ C} A
 C the scored candidates with measured windows under E and ATE the extractor's mean over them (the
 Decision's evidence; an unmeasured candidate has A = 0), a frame is scored F_metrics(x) + H·A(x) with
 H = Σ_x h_x(E), the most the metric terms of F_metrics can add: the measured outcome weighs as much as
-all the frame's proxies together (on KITTI 01 F_metrics prefers ORB to ORB_GRID on most frames, while
-ORB_GRID's measured ATE is half ORB's, and so is its ATE on the sequence — docs/cost.md). Without a
-frame the score is the preference bonus + A(x).
+all the frame's proxies together (on KITTI 01 under a 20 ms budget F_metrics prefers ORB to ORB_GRID on
+every frame, while ORB_GRID's measured mean ATE is two thirds of ORB's and on the sequence ORB_GRID
+default's ATE is 35 % below ORB default's — docs/cost.md). Without a frame the score is the
+preference bonus + A(x).
 """
 from __future__ import annotations
 
@@ -109,8 +110,8 @@ def downscale(image: np.ndarray, pixels: int) -> np.ndarray:
 class Advisor:
     """``neural``: symbolic | paramnet | selectornet | both (default: $NFEX_NEURAL or both; see neural.serve);
     ``models``: the model folder (default: Settings.models). Without a usable model the advisor is symbolic.
-    ``score_pixels``: F_metrics is measured on a copy of the frame of about this many pixels (QVGA: on 2
-    cores a frame request scores SIFT in ~15 ms there against ~50 ms on a 640-px copy; bench/bench_service.py)."""
+    ``score_pixels``: F_metrics is measured on a copy of the frame of about this many pixels (QVGA; bench/
+    bench_service.py times a frame request against the earlier 640-px copy)."""
 
     def __init__(
         self,
@@ -404,8 +405,7 @@ class Advisor:
             more = run([x for x in names if x not in first])
             scored += [c for c, _ in more]
             features.update({c.extractor: feats for c, feats in more})
-        out = scored
-        return out, FrameState(small, features), "metrics", theta
+        return scored, FrameState(small, features), "metrics", theta
 
     def _unscored(self, decision: Decision, x: str, theta: Theta) -> CandidateScore:
         """A candidate SelectorNet was not trained on, listed (probability 0) but not extracted."""

@@ -82,7 +82,6 @@ def test_under_a_budget_the_best_configuration_that_fits(measured: KnowledgeGrap
     reason = orb.evidence["configuration"]["because"]["reason"]
     assert "fits the budget 6 ms" in reason and "0.050 m" in reason
     assert not any(c.kind == "budget" for a in orb.adjustments for c in a.citations)  # chosen, not fitted
-    assert advisor.select({**SLOW, "light": "bright"}, budget_ms=100).candidates  # sanity: larger budget
     big = next(c for c in advisor.select({**SLOW, "light": "bright"}, budget_ms=100).candidates if c.extractor == "ORB")
     assert big.params["nfeatures"] == 2000
 
