@@ -40,11 +40,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import BadInput, NoCandidate
-from ..fitness import Adjustment, adjust_params, f_metrics
+from ..fitness import adjust_params, f_metrics
 from ..kg.vocab import ExtractorSpec, Value, Vocabulary
 from ..neural.serve import ModelHolder, NeuralStep, frame_stats
-from ..rules.engine import Citation, Decision, MeasuredConfiguration, RuleEngine, RuleTable
+from ..rules.engine import RuleEngine, RuleTable
 from ..rules.shape_check import enforce
+from ..rules.types import Adjustment, Citation, Decision, MeasuredConfiguration
 from .budget import Budget, BudgetOutcome, resolve_budget, settle
 from .measured import measured_params
 from .selection import CandidateScore, ContextEntry, PrunedCandidate, Selection

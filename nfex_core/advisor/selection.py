@@ -8,9 +8,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..context import ContextEntry
-from ..fitness import Adjustment
 from ..kg.vocab import Value
-from ..rules.engine import Citation, Factor
+from ..rules.types import Adjustment, Citation, Factor
 
 __all__ = ["CandidateScore", "ContextEntry", "PrunedCandidate", "Selection"]
 

@@ -5,11 +5,14 @@ import getpass
 import json
 import os
 import sys
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
 
 from ..config import Settings
+
+if TYPE_CHECKING:
+    from ..kg import KnowledgeGraph
 
 STORE_HELP = "A folder (embedded store) or an http(s) SPARQL endpoint; default $NFEX_STORE."
 
@@ -26,10 +29,11 @@ def settings() -> Settings:
     return Settings.from_env()
 
 
-def open_kg(seed: bool = True):
-    from ..kg import KnowledgeGraph
+def open_kg(seed: bool = True) -> KnowledgeGraph:
+    """The store named by ``--store`` / NFEX_STORE, seeded first if it is empty (unless ``seed`` is False)."""
+    from ..knowledge import open_graph
 
-    return KnowledgeGraph.open(state.store, seed=seed)
+    return open_graph(state.store, seed_empty=seed)
 
 
 def author(value: str | None) -> str:

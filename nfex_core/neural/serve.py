@@ -27,9 +27,9 @@ from typing import Any
 
 import numpy as np
 
-from ..fitness import Adjustment
+from ..identity import model_iri
 from ..kg.vocab import ExtractorSpec, Value, Vocabulary
-from ..rules.engine import Citation
+from ..rules.types import Adjustment, Citation
 from .artifacts import NeuralModel, find_model
 from .paramnet import decode
 from .selectornet import masked_probabilities, numeric_input, prepare_image
@@ -87,7 +87,7 @@ class NeuralStep:
         assert self.model is not None and self._u is not None
         theta = spec.defaults()
         cite = Citation(
-            rule=f"urn:nfex:model:{self.model.version}#paramnet",
+            rule=str(model_iri(self.model.version, "paramnet")),
             label=f"ParamNet {self.model.version}",
             reason="Θ′ predicted from the context and frame statistics, clamped to the graph's range",
             kind="adjust",
