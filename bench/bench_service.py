@@ -37,7 +37,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 from _timing import call_ms  # noqa: E402
 
 from nfex_core.advisor import Advisor  # noqa: E402
-from nfex_core.advisor.advisor import SCORE_PIXELS  # noqa: E402
+from nfex_core.advisor.scoring import SCORE_PIXELS  # noqa: E402
 from nfex_core.config import Settings  # noqa: E402
 from nfex_core.kg import KnowledgeGraph  # noqa: E402
 from nfex_core.knowledge import open_graph

@@ -1,9 +1,7 @@
 """What every command shares: opening the store, the author of a write, output helpers."""
 from __future__ import annotations
 
-import getpass
 import json
-import os
 import sys
 from typing import TYPE_CHECKING, Any
 
@@ -37,7 +35,7 @@ def open_kg(seed: bool = True) -> KnowledgeGraph:
 
 
 def author(value: str | None) -> str:
-    return value or os.environ.get("NFEX_AUTHOR") or f"{getpass.getuser()} (cli)"
+    return value or settings().author_or_user()
 
 
 def echo_json(obj: Any) -> None:
