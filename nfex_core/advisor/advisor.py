@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import BadInput, NoCandidate
+from ..kg.scope import EvidenceScope, scoped_graph
 from ..kg.vocab import Vocabulary
 from ..neural.serve import ModelHolder, NeuralStep, frame_stats
 from ..rules.engine import RuleEngine, RuleTable
@@ -66,7 +67,9 @@ class Advisor:
     """``neural``: symbolic | paramnet | selectornet | both (default: the settings'; see neural.serve);
     ``models``: the model folder (default: the settings'). Without a usable model the advisor is symbolic.
     ``score_pixels``: F_metrics is measured on a copy of the frame of about this many pixels (QVGA);
-    ``score_threads``: candidates extracted side by side (default: the settings', else the CPU count)."""
+    ``score_threads``: candidates extracted side by side (default: the settings', else the CPU count);
+    ``scope``: the evidence the advisor may read (kg.scope): the graph is read through it, and a model
+    trained on a held-out sequence is not used."""
 
     def __init__(
         self,
@@ -77,10 +80,14 @@ class Advisor:
         neural: str | None = None,
         models: Path | str | None = None,
         score_threads: int | None = None,
+        scope: EvidenceScope | None = None,
     ) -> None:
         settings = kg.settings
+        self.scope = scope or EvidenceScope()
+        if not self.scope.empty and getattr(kg, "scope", None) != self.scope:
+            kg = scoped_graph(kg, self.scope)  # every reader of measurements then honours the scope
         self.kg = kg
-        self.neural = ModelHolder(models or settings.models, neural or settings.neural)
+        self.neural = ModelHolder(models or settings.models, neural or settings.neural, held_out=self.scope.exclude_sequences)
         self.engine = RuleEngine(kg)
         self.scorer = Scorer(score_pixels, score_threads or settings.score_threads_or_cpus)
         self.poll_interval_s = poll_interval_s

@@ -1,84 +1,119 @@
-"""The methods of the paper's Table I as VO choosers (§V-B): ORB and SIFT with OpenCV's default
-parameters, ORB and SIFT with "dynamically optimised" parameters, and nFEX.
+"""The methods ``nfex evaluate`` compares, as VO choosers (§V-B of the paper, made honest).
 
-- ``orb-default`` / ``sift-default``: the graph's defaults (OpenCV's); ``orb_grid-default``: the
-  grid-spread ORB registry entry (issue 8) with its defaults.
-- ``orb-dyn`` / ``sift-dyn``: per window, the parameters that a sweep on *other* sequences measured
-  best for that extractor under the window's known conditions — the configuration with the lowest
-  mean ATE over Measurements that share a condition value with the window's context, excluding every
-  measurement on the evaluated sequence (read from the graph; defaults where nothing was measured).
-- ``nfex``: the advisor (DESIGN.md, "The one flow") per frame, with its stream state, through the VO
-  chooser; an optional per-frame budget (ms) is passed where the advisor accepts one.
+Static methods — one extractor throughout — come from the graph, so an extractor added as data is a
+baseline at once:
+
+- ``<x>-default``: extractor x (its token in lower case, e.g. ``orb_grid``) with the graph's defaults;
+- ``<x>-dyn``: x with, per frame, the configuration of x with the lowest mean ATE measured under the frame's
+  known conditions (the same lookup the advisor's measured Θ′ uses, ``RuleTable.measured``; the defaults
+  where nothing was measured) — the paper's "dynamically optimised" baseline;
+- ``tuned-static``: the one configuration (any extractor) with the lowest mean ATE over every measurement
+  in scope with at least ``nfex:minMeasurements`` windows and no failed one — what a careful engineer
+  would put in a config file without seeing the test sequence.
+
+``nfex``: the advisor per frame with its stream state. Every method reads the graph through the
+evaluation's evidence scope, which holds the evaluated sequence out (``kg.scope``).
 """
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from ..datasets.base import Frame
 from ..errors import BadInput
-from ..kg.terms import py
+from ..kg.vocab import Value, Vocabulary
+from ..rules.engine import RuleTable
 from ..vo import Choice, Chooser, FrameRecord, fixed
 
 if TYPE_CHECKING:
-    from ..kg.store import KnowledgeGraph
+    from ..advisor import Advisor
 
-METHODS = ("orb-default", "sift-default", "orb-dyn", "sift-dyn", "nfex", "orb_grid-default")
+STATIC_KINDS = ("default", "dyn")
+TUNED = "tuned-static"
+NFEX = "nfex"
+ORACLES = ("oracle-segment", "oracle-pair")
 
 
-def best_params(
-    kg: KnowledgeGraph, extractor: str, context: Mapping[str, str], exclude_sequence: str | None
-) -> tuple[dict[str, Any], str]:
-    """The measured-best Θ for ``extractor`` under ``context`` on other sequences, and where it came from."""
-    vocab = kg.vocabulary()
-    conds = []
-    for d, v in context.items():
-        if v and d in vocab.dimensions and v in vocab.dimensions[d].values:
-            conds.append(f"<{vocab.condition_value(d, v).iri}>")
-    if not conds:
-        return {}, "defaults (no known condition)"
-    exclude = f'FILTER NOT EXISTS {{ ?m nfex:sequence/rdfs:label "{exclude_sequence}" }}' if exclude_sequence else ""
-    rows = kg.select(
-        f"""SELECT ?cfg (AVG(?ate) AS ?mean) (COUNT(?m) AS ?n) WHERE {{
-            ?m a nfex:Measurement ; sosa:usedProcedure ?cfg ; nfex:ateRmse ?ate ; nfex:underCondition ?c .
-            ?cfg nfex:ofExtractor/nfex:token "{extractor}" .
-            VALUES ?c {{ {' '.join(conds)} }}
-            {exclude}
-        }} GROUP BY ?cfg ORDER BY ?mean LIMIT 1"""
-    ).rows
-    if not rows:
-        return {}, "defaults (nothing measured)"
-    cfg = rows[0]["cfg"]
-    settings = kg.select(
-        f"SELECT ?name ?v WHERE {{ <{cfg}> nfex:hasSetting ?s . ?s nfex:parameter/nfex:opencvName ?name ; nfex:value ?v }}"
-    ).rows
-    params = {str(r["name"]): py(r["v"]) for r in settings}
-    n = int(py(rows[0]["n"]))
-    return params, f"sweep: {cfg} mean ATE {float(py(rows[0]['mean'])):.3f} m over {n} windows"
+def method_name(extractor: str, kind: str) -> str:
+    return f"{extractor.lower()}-{kind}"
 
+
+def static_methods(vocab: Vocabulary) -> list[str]:
+    """Every extractor of the graph at its default and its dynamic configuration, and tuned-static."""
+    return [method_name(x, k) for x in vocab.extractors for k in STATIC_KINDS] + [TUNED]
+
+
+def known_methods(vocab: Vocabulary) -> list[str]:
+    return [*static_methods(vocab), NFEX]
+
+
+def parse_static(method: str, vocab: Vocabulary) -> tuple[str, str]:
+    """``orb_grid-dyn`` → ("ORB_GRID", "dyn"); BadInput listing the methods for anything else."""
+    name, _, kind = method.rpartition("-")
+    by_lower = {x.lower(): x for x in vocab.extractors}
+    if kind not in STATIC_KINDS or name not in by_lower:
+        raise BadInput(f"unknown method {method!r}; known: {', '.join(known_methods(vocab))}")
+    return by_lower[name], kind
+
+
+@dataclass
+class DynChooser:
+    """x with the best configuration measured under each frame's known conditions."""
+
+    table: RuleTable
+    extractor: str
+    context: Mapping[str, str]
+    notes: set[str] = field(default_factory=set)
+    _cache: dict[tuple[Any, ...], Choice] = field(default_factory=dict)
+
+    def __call__(self, frame: Frame, history: list[FrameRecord]) -> Choice:
+        values = {d: v for d, v in {**self.context, **frame.context}.items() if d in self.table.dimensions and v}
+        key = self.table.key(values)
+        choice = self._cache.get(key)
+        if choice is None:
+            ranked = self.table.measured(values).get(self.extractor)
+            if ranked:
+                best = ranked[0]
+                choice = Choice(self.extractor, dict(best.params))
+                self.notes.add(f"{best.iri.rsplit('#', 1)[-1]} ({best.mean_ate:.3f} m over {best.windows} windows)")
+            else:
+                choice = Choice(self.extractor, {})
+                self.notes.add("defaults (nothing measured)")
+            self._cache[key] = choice
+        return choice
+
+
+def tuned_static(table: RuleTable) -> tuple[str, dict[str, Value], str]:
+    """The configuration with the lowest mean ATE over all measurements in scope (module docstring)."""
+    best: tuple[float, str, str, dict[str, Value], int] | None = None
+    for x, configurations in table.configurations.items():
+        for iri, (params, measurements) in configurations.items():
+            ates = [m.ate for m in measurements]
+            if len(ates) < table.min_measurements or any(a is None for a in ates):
+                continue
+            mean = sum(a for a in ates if a is not None) / len(ates)
+            if best is None or (mean, iri) < (best[0], best[1]):
+                best = (mean, iri, x, dict(params), len(ates))
+    if best is None:
+        raise BadInput("tuned-static needs measured configurations in the graph (run `nfex sweep` first)")
+    mean, iri, x, params, n = best
+    return x, params, f"{iri.rsplit('#', 1)[-1]}: {x}, mean ATE {mean:.3f} m over {n} windows (all conditions)"
 
 
 @dataclass
 class AdvisorChooser:
     """The nFEX advisor as a VO chooser: one selection per frame, the stream state carried along."""
 
-    advisor: Any
+    advisor: Advisor
     context: Mapping[str, str]
     budget_ms: float | None = None
-    every: int = 1
     selections: list[dict[str, Any]] = field(default_factory=list)
     _state: Any = None
-    _last: Choice | None = None
 
     def __call__(self, frame: Frame, history: list[FrameRecord]) -> Choice:
-        if self._last is not None and frame.index % self.every:
-            return self._last
-        ctx = {**self.context, **frame.context}
-        sel = self.advisor.select(ctx, frame.image, self._state, budget_ms=self.budget_ms)
+        sel = self.advisor.select({**self.context, **frame.context}, frame.image, self._state, budget_ms=self.budget_ms)
         self._state = sel.state
-        self._last = Choice(sel.extractor, dict(sel.params))
         self.selections.append({
             "frame": frame.index, "extractor": sel.extractor, "params": sel.params, "mode": sel.mode,
             "pruned": [p.extractor for p in sel.pruned],
@@ -87,22 +122,23 @@ class AdvisorChooser:
                             "mean_ate_m": c.evidence.measured.mean_ate if c.evidence.measured else None}
                            for c in sel.candidates],
         })
-        return self._last
+        return Choice(sel.extractor, dict(sel.params))
 
 
 def chooser_for(
-    method: str, kg: KnowledgeGraph, context: Mapping[str, str], sequence_label: str, budget_ms: float | None = None
+    method: str, vocab: Vocabulary, table: RuleTable, advisor: Advisor | None, context: Mapping[str, str],
+    budget_ms: float | None = None,
 ) -> tuple[Chooser, str]:
     """The chooser of ``method`` and a note saying which parameters it runs with."""
-    if method in ("orb-default", "sift-default", "orb_grid-default"):
-        return fixed(method.split("-")[0].upper()), "OpenCV defaults"
-    if method in ("orb-dyn", "sift-dyn"):
-        x = method.split("-")[0].upper()
-        params, note = best_params(kg, x, context, sequence_label)
-        return fixed(x, params), note + (" " + json.dumps(params, sort_keys=True) if params else "")
-    if method == "nfex":
-        from ..advisor import Advisor
-
-        return AdvisorChooser(Advisor(kg), context, budget_ms), "advisor per frame" + (
-            f", budget {budget_ms} ms" if budget_ms is not None else "")
-    raise BadInput(f"unknown method {method!r}; known: {', '.join(METHODS)}")
+    if method == NFEX:
+        if advisor is None:
+            raise BadInput("the nfex method needs an advisor")
+        return AdvisorChooser(advisor, context, budget_ms), "advisor per frame" + (
+            f", budget {budget_ms:g} ms" if budget_ms is not None else "")
+    if method == TUNED:
+        x, params, note = tuned_static(table)
+        return fixed(x, params), note
+    x, kind = parse_static(method, vocab)
+    if kind == "default":
+        return fixed(x), "the graph's defaults"
+    return DynChooser(table, x, context), "best measured configuration per frame's known conditions"

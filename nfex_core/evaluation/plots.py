@@ -1,13 +1,16 @@
-"""Plots of an evaluation (matplotlib, imported here only): trajectories against the ground truth,
-Mean ATE per method, the extractor nFEX chose per frame, and accuracy against cost (issue 8)."""
+"""Plots of an evaluation (matplotlib, imported here only): trajectories against the ground truth, mean ATE
+with its 95 % interval per method and condition, the configuration nFEX ran per frame against the schedule,
+and accuracy against cost."""
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
 
-from .report import NAMES, rows
-from .run import Evaluation
+from .methods import NFEX, ORACLES
+from .report import display
+from .run import SCHEDULE, Evaluation
+from .stats import summary
 
 
 def _aligned(ev: Evaluation, poses: np.ndarray) -> np.ndarray:
@@ -31,68 +34,79 @@ def draw(ev: Evaluation, out: Path) -> list[Path]:
 
     out.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
-    corr = ev.corruptions()[0]
-    # trajectories (ground plane x–z for cameras looking along z), first run, first condition
+    cond = SCHEDULE if SCHEDULE in ev.conditions else ev.conditions[0]
+    # trajectories (ground plane x–z for cameras looking along z), run 0
     fig, ax = plt.subplots(figsize=(7, 6))
     if ev.ground_truth is not None:
         g = ev.ground_truth[:, :3, 3]
         ax.plot(g[:, 0], g[:, 2], "k-", lw=2, label="ground truth")
-    for m in ev.methods():
-        recs = [r for r in ev.cell(m, corr) if r.result is not None]
+    for key in ev.keys():
+        recs = [r for r in ev.by_key(key, cond) if r.result is not None]
         if recs:
             p = _aligned(ev, recs[0].result.poses)  # type: ignore[union-attr]
-            ax.plot(p[:, 0], p[:, 2], "-", lw=1, label=NAMES.get(m, m) + (" (fail)" if recs[0].failed else ""))
+            ax.plot(p[:, 0], p[:, 2], "-", lw=2 if key.startswith(NFEX) else 1,
+                    label=display(key) + (" (fail)" if recs[0].failed else ""))
     ax.set_xlabel("x (m)")
     ax.set_ylabel("z (m)")
     ax.set_aspect("equal", adjustable="datalim")
-    ax.set_title(f"{ev.dataset} {ev.sequence} ({corr}): trajectories, Sim(3)-aligned")
-    ax.legend(fontsize=8)
+    ax.set_title(f"{ev.dataset} {ev.sequence} ({cond}), run 0: trajectories, Sim(3)-aligned")
+    ax.legend(fontsize=7)
     written.append(_save(fig, out / "trajectories.png"))
-    # ATE bars per method and condition
-    fig, ax = plt.subplots(figsize=(8, 4))
-    table = rows(ev)
-    conds = ev.corruptions()
-    width = 0.8 / max(len(conds), 1)
-    for j, c in enumerate(conds):
-        vals = [ev.mean_ate([r for r in recs if r.corruption == c]) for _, _, recs in table]
-        xs = np.arange(len(table)) + j * width
-        ax.bar(xs, [v if v is not None else 0 for v in vals], width, label=c)
-        for x, v in zip(xs, vals, strict=True):
-            if v is None:
-                ax.text(x, 0, "fail", ha="center", va="bottom", fontsize=7, rotation=90)
-    ax.set_xticks(np.arange(len(table)) + 0.4 - width / 2)
-    ax.set_xticklabels([NAMES.get(m, m) + (f"\n@{b:g} ms" if b is not None else "") for m, b, _ in table], fontsize=8)
-    ax.set_ylabel("Mean ATE (m)")
+    # mean ATE with 95 % intervals per method and condition
+    keys = ev.keys()
+    fig, ax = plt.subplots(figsize=(max(8, 0.6 * len(keys)), 4))
+    width = 0.8 / max(len(ev.conditions), 1)
+    for j, c in enumerate(ev.conditions):
+        sums = [summary(ev.ates(k, c)) for k in keys]
+        xs = np.arange(len(keys)) + j * width
+        means = [s.mean if s.mean is not None else 0.0 for s in sums]
+        err = np.array([[s.mean - s.ci95[0], s.ci95[1] - s.mean] if s.ci95 and s.mean is not None else [0, 0] for s in sums]).T
+        ax.bar(xs, means, width, yerr=err, capsize=2, label=c)
+    ax.set_xticks(np.arange(len(keys)) + 0.4 - width / 2)
+    ax.set_xticklabels([display(k) for k in keys], fontsize=7, rotation=45, ha="right")
+    ax.set_ylabel("Mean ATE (m), 95 % CI")
     ax.legend(fontsize=8)
     written.append(_save(fig, out / "ate.png"))
-    # extractor chosen per frame by nFEX
-    sel = [r for r in ev.records if r.method == "nfex" and r.budget_ms is None and r.result is not None]
-    if sel:
-        fig, ax = plt.subplots(figsize=(8, 2.5))
-        kinds = sorted({f.extractor for r in sel for f in r.result.frames})  # type: ignore[union-attr]
-        for i, r in enumerate(sel[: len(conds)]):
-            names = [f.extractor for f in r.result.frames]  # type: ignore[union-attr]
-            ax.scatter([f.index for f in r.result.frames], [kinds.index(n) + i * 0.1 for n in names], s=8,  # type: ignore[union-attr]
-                       label=r.corruption)
-            ax.set_yticks(range(len(kinds)))
-            ax.set_yticklabels(kinds)
-        ax.set_xlabel("frame")
-        ax.set_title("extractor chosen by nFEX per frame")
-        ax.legend(fontsize=8)
+    # configuration per frame for nFEX and the oracles, against the schedule
+    runs = [r for r in ev.by_key(NFEX, cond) if r.result is not None][:1] + \
+        [r for k in ORACLES for r in ev.by_key(k, cond)[:1] if r.result is not None] + \
+        [r for k in ev.keys() if k.startswith(NFEX + "@") for r in ev.by_key(k, cond)[:1] if r.result is not None]
+    if runs:
+        kinds = sorted({f.extractor for r in runs for f in r.result.frames})  # type: ignore[union-attr]
+        fig, ax = plt.subplots(figsize=(9, 1.2 + 0.5 * len(kinds)))
+        if cond == SCHEDULE and ev.schedule is not None:
+            for i, s in enumerate(ev.schedule.segments):
+                ax.axvspan(s.start - 0.5, s.end + 0.5, color=("#eeeeee", "#dddddd")[i % 2], zorder=0)
+                ax.text((s.start + s.end) / 2, len(kinds) - 0.4, s.corruption, ha="center", fontsize=8)
+        for i, r in enumerate(runs):
+            frames = r.result.frames  # type: ignore[union-attr]
+            ys = [kinds.index(f.extractor) + 0.12 * (i - len(runs) / 2) for f in frames]
+            ax.scatter([f.index for f in frames], ys, s=10, label=display(r.key), zorder=2)
+            lost = [f for f in frames if f.lost]
+            ax.scatter([f.index for f in lost], [kinds.index(f.extractor) + 0.12 * (i - len(runs) / 2) for f in lost],
+                       s=40, marker="x", color="red", zorder=3)
+        ax.set_yticks(range(len(kinds)))
+        ax.set_yticklabels(kinds)
+        ax.set_ylim(-0.7, len(kinds))
+        ax.set_xlabel("frame (× = pair lost or rejected)")
+        ax.set_title("configuration run per frame (run 0)")
+        ax.legend(fontsize=7, loc="lower right")
         written.append(_save(fig, out / "extractor_per_frame.png"))
     # accuracy against cost
-    fig, ax = plt.subplots(figsize=(6, 4.5))
-    for m, b, recs in table:
-        ate = ev.mean_ate(recs)
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    for key in keys:
+        recs = ev.by_key(key, cond)
+        ate = Evaluation.mean_ate(recs)
         if ate is None or not recs:
             continue
-        ms = float(np.mean([r.ms_per_frame for r in recs]))
-        ax.scatter([ms], [ate], marker="*" if m == "nfex" else "o", s=80 if m == "nfex" else 40)
-        ax.annotate(NAMES.get(m, m) + (f" @{b:g}" if b is not None else ""), (ms, ate), fontsize=8,
-                    xytext=(4, 4), textcoords="offset points")
-    ax.set_xlabel("extraction + matching (ms/frame)")
+        ms = float(np.mean([r.extraction_ms for r in recs]))
+        star = key.startswith(NFEX)
+        ax.scatter([ms], [ate], marker="*" if star else "o", s=80 if star else 30)
+        ax.annotate(display(key), (ms, ate), fontsize=7, xytext=(4, 4), textcoords="offset points")
+    ax.set_xscale("log")
+    ax.set_xlabel("extraction ms/frame (log)")
     ax.set_ylabel("Mean ATE (m)")
-    ax.set_title("accuracy against cost")
+    ax.set_title(f"accuracy against cost ({cond})")
     written.append(_save(fig, out / "accuracy_vs_cost.png"))
     return written
 

@@ -1,6 +1,19 @@
-"""``nfex evaluate`` as a library function: every method × corruption × run through the VO on one
-sequence, ATE (Sim(3), evo ``-as``) against the ground truth, and the cost per frame (paper §V-B,
-Table I; issue 8's accuracy/cost trade-off).
+"""``nfex evaluate`` as a library function: every method × condition × paired run through the same VO.
+
+- **Paired runs.** Run r uses seed r for every method: the corruption's draws and the RANSAC order, so
+  two methods' run-r ATEs differ by their choices alone (``stats``).
+- **Conditions.** Each whole-sequence corruption of ``corruptions`` (``none`` is the sequence as it is),
+  and a ``schedule`` (``datasets.schedule``) under the condition name ``schedule``.
+- **Evidence scope.** Every method reads the graph through one scope that holds the evaluated sequence
+  out (``identity.sequence_iri``; ``kg.scope``): the dynamic baselines, tuned-static and the advisor
+  alike, by construction.
+- **The same front end.** Every method runs with the front-end checks of the sequence's agent from the
+  graph (``motion.StepChecks``), unless ``checks`` is False.
+- **Oracles** (``oracle``): the hindsight choices over the static methods' own pair estimates (``oracle``).
+
+Per run: ATE and RPE (Sim(3), evo ``-as``), per segment and per transition pair under a schedule, lost
+and rejected pairs, extraction ms per frame (mean and max: what a budget bounds, re-extraction on a
+switch included), matching ms, and the cost model's expected ms of the configurations run.
 """
 from __future__ import annotations
 
@@ -12,33 +25,51 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..datasets.base import Sequence
+from ..datasets.schedule import Schedule, apply_schedule
+from ..identity import sequence_iri
+from ..kg.scope import EvidenceScope, scoped_graph
+from ..motion import NO_CHECKS, StepChecks
 from ..vo import VOParams, VOResult, run_vo
-from .methods import AdvisorChooser, chooser_for
+from .methods import NFEX, ORACLES, TUNED, AdvisorChooser, DynChooser, chooser_for, static_methods
+from .oracle import per_pair, per_segment, replay
+from .segments import by_segment, run_errors, transitions
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
+
+SCHEDULE = "schedule"
 
 
 @dataclass
 class RunRecord:
     method: str
-    corruption: str
+    condition: str  # a corruption name, "none", or "schedule"
     run: int
     ate_rmse: float | None
+    rpe_rmse: float | None
     failed: bool
     lost: int
+    rejected: int  # pairs the front-end checks rejected (counted in lost too)
     frames: int
     extraction_ms: float  # mean per frame
+    extraction_max_ms: float
     matching_ms: float  # mean per frame pair
+    expected_ms: float | None  # the cost model's mean expected extraction ms of the configurations run
     wall_s: float
     note: str = ""
     budget_ms: float | None = None
+    segments: list[dict[str, Any]] = field(default_factory=list)
+    transitions: list[dict[str, Any]] = field(default_factory=list)
     result: VOResult | None = field(default=None, repr=False)
     selections: list[dict[str, Any]] = field(default_factory=list, repr=False)
 
     @property
     def ms_per_frame(self) -> float:
         return self.extraction_ms + self.matching_ms
+
+    @property
+    def key(self) -> str:
+        return self.method if self.budget_ms is None else f"{self.method}@{self.budget_ms:g}ms"
 
 
 @dataclass
@@ -48,21 +79,67 @@ class Evaluation:
     frames: int
     records: list[RunRecord]
     ground_truth: np.ndarray | None = None
+    conditions: list[str] = field(default_factory=list)
+    schedule: Schedule | None = None
+    severity: float = 0.7
+    runs: int = 1
+    checks: str = "off"
+    scope: str = ""
+    static: list[str] = field(default_factory=list)
+
+    def keys(self) -> list[str]:
+        return list(dict.fromkeys(r.key for r in self.records))
 
     def methods(self) -> list[str]:
         return list(dict.fromkeys(r.method for r in self.records if r.budget_ms is None))
 
     def corruptions(self) -> list[str]:
-        return list(dict.fromkeys(r.corruption for r in self.records))
+        return self.conditions
 
-    def cell(self, method: str, corruption: str | None = None, budget: float | None = None) -> list[RunRecord]:
-        return [r for r in self.records if r.method == method and (corruption is None or r.corruption == corruption)
+    def cell(self, method: str, condition: str | None = None, budget: float | None = None) -> list[RunRecord]:
+        return [r for r in self.records if r.method == method and (condition is None or r.condition == condition)
                 and r.budget_ms == budget]
+
+    def by_key(self, key: str, condition: str) -> list[RunRecord]:
+        return sorted((r for r in self.records if r.key == key and r.condition == condition), key=lambda r: r.run)
+
+    def ates(self, key: str, condition: str) -> list[float | None]:
+        """Run r's ATE at index r (None: failed)."""
+        return [None if r.failed else r.ate_rmse for r in self.by_key(key, condition)]
 
     @staticmethod
     def mean_ate(records: Seq[RunRecord]) -> float | None:
         ok = [r.ate_rmse for r in records if not r.failed and r.ate_rmse is not None]
         return float(np.mean(ok)) if ok else None
+
+    def best_static(self, condition: str, budget: float | None = None) -> str | None:
+        """The static method with the fewest failed runs, then the lowest mean ATE; under a budget only
+        those whose expected extraction ms per frame (the cost model's, the advisor's criterion) fits it."""
+        best: tuple[int, float, str] | None = None
+        for m in self.static:
+            recs = self.by_key(m, condition)
+            if not recs:
+                continue
+            if budget is not None:
+                exp = [r.expected_ms for r in recs]
+                if any(e is None for e in exp) or float(np.mean([e for e in exp if e is not None])) > budget:
+                    continue
+            mean = self.mean_ate(recs)
+            rank = (sum(r.failed for r in recs), mean if mean is not None else float("inf"), m)
+            if best is None or rank < best:
+                best = rank
+        return best[2] if best is not None else None
+
+
+def _variant(seq: Sequence, condition: str, severity: float, run: int, schedule: Schedule | None) -> Sequence:
+    if condition == SCHEDULE:
+        assert schedule is not None
+        return apply_schedule(seq, schedule, severity, seed=run)
+    if condition == "none":
+        return seq
+    from ..datasets.corruptions import corrupt
+
+    return corrupt(seq, condition, severity, seed=run)
 
 
 def evaluate(
@@ -70,49 +147,146 @@ def evaluate(
     kg: KnowledgeGraph,
     *,
     methods: Seq[str],
-    runs: int = 1,
+    runs: int = 5,
     corruptions: Seq[str] = ("none",),
     severity: float = 0.7,
     budgets: Seq[float] = (),
     frames: int | None = None,
+    schedule: str | None = None,
+    checks: bool = True,
+    oracle: bool = False,
     progress: bool = False,
 ) -> Evaluation:
-    """Run every method (and nFEX at each budget) on ``sequence`` and each corruption, ``runs`` times."""
-    from ..sweeps.cells import window_errors
+    """Run every method (and nFEX at each budget) on ``sequence`` under each condition, ``runs`` paired times."""
+    from ..advisor import Advisor
+    from ..rules.engine import RuleEngine
     from ..vision.registry import ExtractorRegistry
 
-    registry = ExtractorRegistry.from_vocabulary(kg.vocabulary())
-    stop = len(sequence) if frames is None else min(frames, len(sequence))
-    label = f"{sequence.dataset} {sequence.name}"
-    jobs: list[tuple[str, str, float | None]] = [(m, c, None) for c in corruptions for m in methods]
-    jobs += [("nfex", c, b) for c in corruptions for b in budgets]
+    seq = sequence[: min(frames, len(sequence))] if frames is not None and frames < len(sequence) else sequence
+    sched = Schedule.parse(schedule, len(seq)) if schedule else None
+    scope = EvidenceScope.holding_out([sequence_iri(seq.dataset, seq.name)])
+    view = scoped_graph(kg, scope)
+    vocab = view.vocabulary()
+    table = RuleEngine(view).table()
+    registry = ExtractorRegistry.from_vocabulary(vocab)
+    advisor = Advisor(view, scope=scope) if NFEX in methods or budgets else None
+    agent = seq.context.get("agent")
+    step_checks = table.step_checks.get(agent or "", NO_CHECKS) if checks else NO_CHECKS
+    conditions = [*corruptions, *([SCHEDULE] if sched else [])]
+    static = [m for m in methods if m in static_methods(vocab)]
+    jobs: list[tuple[str, float | None]] = [(m, None) for m in methods] + [(NFEX, b) for b in budgets]
+    n_oracle = len(ORACLES) if oracle and static else 0
     bar = None
     if progress:
         from tqdm import tqdm
 
-        bar = tqdm(total=len(jobs) * runs, desc="evaluate", unit="run")
-    records: list[RunRecord] = []
-    for method, corruption, budget in jobs:
-        seq = sequence
-        if corruption != "none":
-            from ..datasets.corruptions import corrupt
-
-            seq = corrupt(sequence, corruption, severity, seed=0)
-        context = {k: v for k, v in seq.context.items() if v}
+        bar = tqdm(total=len(conditions) * runs * (len(jobs) + n_oracle), desc="evaluate", unit="run")
+    trial = _Trial(registry, step_checks, seq, sched, _ExpectedCost(vocab, table), bar)
+    context = {k: v for k, v in seq.context.items() if v}
+    for condition in conditions:
         for r in range(runs):
-            chooser, note = chooser_for(method, kg, context, label, budget)
-            t0 = time.perf_counter()
-            # each run its own, reproducible RANSAC draw (runs differ as a SLAM system's would)
-            res = run_vo(seq, chooser, registry=registry, stop=stop, params=VOParams(seed=r))
-            ate, _ = window_errors(seq, res) if not res.failed else (None, None)
-            records.append(RunRecord(
-                method, corruption, r, ate, res.failed or ate is None, res.lost_count, len(res.frames),
-                res.mean("extraction_ms"), res.mean("matching_ms", skip_first=True), time.perf_counter() - t0,
-                note, budget, res, list(chooser.selections) if isinstance(chooser, AdvisorChooser) else [],
-            ))
-            if bar is not None:
-                bar.update(1)
+            trial.start(condition, r, _variant(seq, condition, severity, r, sched))
+            static_runs: dict[str, VOResult] = {}
+            for method, budget in jobs:
+                chooser, note = chooser_for(method, vocab, table, advisor, context, budget)
+                rec = trial.measure(method, chooser, note, budget)
+                if method in static and rec.result is not None:
+                    static_runs[method] = rec.result
+            if n_oracle:
+                fallback = min(static_runs, key=lambda m: (trial.ate_or_inf(m), m))
+                seg_choices, taken = per_segment(static_runs, sched, fallback)
+                trial.measure("oracle-segment", replay(seg_choices), "per segment: " + ", ".join(
+                    f"{s} {m}" for s, m in taken.items()), None)
+                trial.measure("oracle-pair", replay(per_pair(static_runs, fallback)),
+                              "per frame pair, the static estimate closest to the ground truth", None)
+    records = trial.records
     if bar is not None:
         bar.close()
-    gt = sequence.poses[:stop] if sequence.poses is not None else None
-    return Evaluation(sequence.dataset, sequence.name, stop, records, gt)
+    gt = seq.poses
+    return Evaluation(seq.dataset, seq.name, len(seq), records, gt, conditions, sched, severity, runs,
+                      _describe(step_checks), scope.describe(), [m for m in static if m in methods])
+
+
+class _Trial:
+    """Runs methods on the variant of one condition and run, and keeps their records."""
+
+    def __init__(self, registry: Any, checks: StepChecks, seq: Sequence, sched: Schedule | None,
+                 expected: _ExpectedCost, bar: Any) -> None:
+        self.registry, self.checks, self.seq, self.sched, self.expected, self.bar = registry, checks, seq, sched, expected, bar
+        self.records: list[RunRecord] = []
+        self.condition, self.run, self.variant = "none", 0, seq
+
+    def start(self, condition: str, run: int, variant: Sequence) -> None:
+        self.condition, self.run, self.variant = condition, run, variant
+
+    def measure(self, method: str, chooser: Any, note: str, budget: float | None) -> RunRecord:
+        t0 = time.perf_counter()
+        res = run_vo(self.variant, chooser, registry=self.registry, params=VOParams(seed=self.run), checks=self.checks)
+        if isinstance(chooser, DynChooser):
+            note = "; ".join(sorted(chooser.notes))
+        rec = _record(method, self.condition, self.run, budget, res, self.seq, self.sched, self.expected,
+                      time.perf_counter() - t0, note)
+        rec.selections = list(chooser.selections) if isinstance(chooser, AdvisorChooser) else []
+        self.records.append(rec)
+        if self.bar is not None:
+            self.bar.update(1)
+        return rec
+
+    def ate_or_inf(self, method: str) -> float:
+        for rec in self.records:
+            if (rec.method, rec.condition, rec.run, rec.budget_ms) == (method, self.condition, self.run, None):
+                return rec.ate_rmse if rec.ate_rmse is not None and not rec.failed else float("inf")
+        return float("inf")
+
+
+def _describe(c: StepChecks) -> str:
+    if not c.active:
+        return "off"
+    parts = []
+    if c.max_rotation_rate is not None:
+        parts.append(f"rotation ≤ {c.max_rotation_rate:g}°/s")
+    if c.max_heading_change_rate is not None:
+        parts.append(f"heading change ≤ {c.max_heading_change_rate:g}°/s")
+    return f"agent {c.agent}: " + ", ".join(parts)
+
+
+class _ExpectedCost:
+    """The cost model's expected extraction ms of a configuration at a frame size (cached)."""
+
+    def __init__(self, vocab: Any, table: Any) -> None:
+        self.vocab, self.cost = vocab, table.cost
+        self._cache: dict[tuple[Any, ...], float | None] = {}
+
+    def __call__(self, extractor: str, params: dict[str, Any], w: int, h: int) -> float | None:
+        key = (extractor, tuple(sorted(params.items())), w, h)
+        if key not in self._cache:
+            e = self.cost.expected(self.vocab.extractor(extractor), params, w, h)
+            self._cache[key] = e.ms
+        return self._cache[key]
+
+    def mean(self, res: VOResult) -> float | None:
+        values = [self(f.extractor, f.params, res.width, res.height) for f in res.frames]
+        return None if any(v is None for v in values) or not values else float(np.mean(values))  # type: ignore[arg-type]
+
+
+def _record(
+    method: str, condition: str, run: int, budget: float | None, res: VOResult, seq: Sequence,
+    sched: Schedule | None, expected: _ExpectedCost, wall_s: float, note: str,
+) -> RunRecord:
+    errors = run_errors(seq.poses, res)
+    failed = res.failed or errors.ate is None
+    use_sched = sched if condition == SCHEDULE else None
+    return RunRecord(
+        method=method, condition=condition, run=run, ate_rmse=errors.ate, rpe_rmse=errors.rpe, failed=failed,
+        lost=res.lost_count, rejected=sum(f.rejected for f in res.frames), frames=len(res.frames),
+        extraction_ms=res.mean("extraction_ms"),
+        extraction_max_ms=max((f.extraction_ms for f in res.frames), default=0.0),
+        matching_ms=res.mean("matching_ms", skip_first=True), expected_ms=expected.mean(res), wall_s=wall_s,
+        note=note, budget_ms=budget,
+        segments=by_segment(errors, res, use_sched) if use_sched else [],
+        transitions=transitions(errors, res, use_sched) if use_sched else [],
+        result=res,
+    )
+
+
+__all__ = ["SCHEDULE", "TUNED", "Evaluation", "RunRecord", "evaluate"]

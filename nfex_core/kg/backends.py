@@ -105,6 +105,13 @@ class Backend(ABC):
 class EmbeddedBackend(Backend):
     """An Oxigraph store in a folder (RocksDB), or in memory when ``path`` is None."""
 
+    @classmethod
+    def of_store(cls, store: ox.Store) -> EmbeddedBackend:
+        """An in-memory backend over an Oxigraph store already filled (e.g. a scoped copy)."""
+        backend = cls(None)
+        backend._store = store
+        return backend
+
     def __init__(self, path: str | Path | None) -> None:
         self.location = str(path) if path is not None else ":memory:"
         try:

@@ -135,9 +135,11 @@ class NeuralStep:
 class ModelHolder:
     """Loads the model once (lazily) and answers, per graph vocabulary, which neural steps apply."""
 
-    def __init__(self, models: Path | str, mode: str = "both", name: str = "default") -> None:
+    def __init__(self, models: Path | str, mode: str = "both", name: str = "default",
+                 held_out: frozenset[str] = frozenset()) -> None:
         self.models = Path(models)
         self.mode = check_mode(mode)
+        self.held_out = held_out  # sequence IRIs the evidence scope holds out: a model trained on one is not used
         self.name = name
         self._model: NeuralModel | None = None
         self._loaded = False
@@ -163,6 +165,12 @@ class ModelHolder:
                     self._loaded = True
         return self._model
 
+    def _leak(self, model: NeuralModel) -> str | None:
+        seen = _trained_on(model) & set(self.held_out)
+        if seen:
+            return f"the model was trained on {', '.join(sorted(seen))}, which the evidence scope holds out"
+        return None
+
     def step(self, vocab: Vocabulary) -> NeuralStep:
         info: dict[str, Any] = {"mode": self.mode}
         if self.mode == "symbolic":
@@ -171,7 +179,7 @@ class ModelHolder:
         if model is None:
             return NeuralStep(None, False, False, {**info, "used": "symbolic", "fallback": self._error})
         if self._checked is None or self._checked[0] != vocab.version:
-            self._checked = (vocab.version, model.check(vocab))
+            self._checked = (vocab.version, model.check(vocab) or self._leak(model))
         info.update(model.info())
         if self._checked[1] is not None:
             return NeuralStep(None, False, False, {**info, "used": "symbolic", "fallback": self._checked[1]})
@@ -184,6 +192,14 @@ class ModelHolder:
                 info["skipped"] = gates
         used = "+".join(n for n, on in (("paramnet", p), ("selectornet", s)) if on) or "symbolic"
         return NeuralStep(model, p, s, {**info, "used": used, "load_ms": round(self.load_ms or 0.0, 3)})
+
+
+def _trained_on(model: NeuralModel) -> set[str]:
+    """The sequence IRIs of the model's training table (its manifest's ``dataset/sequence`` keys)."""
+    from ..identity import sequence_iri
+
+    keys = model.manifest.get("data", {}).get("sequences", [])
+    return {str(sequence_iri(*k.split("/", 1))) if "/" in k else str(sequence_iri(None, k)) for k in keys}
 
 
 def frame_stats(stats: Mapping[str, float] | None) -> dict[str, float] | None:

@@ -30,6 +30,7 @@ from ..cost import BudgetTerms, CostModel, fit_cost_model, measured_settings
 from ..errors import NfexError
 from ..kg.terms import py
 from ..kg.vocab import ExtractorSpec, Value
+from ..motion import StepChecks, load_step_checks
 from . import pruning
 from .shapes import load_context_shapes
 from .statements import CompiledStatement, load_statements
@@ -67,6 +68,7 @@ class RuleTable:
     compile_ms: float
     cost: CostModel = field(default_factory=CostModel)
     budget_terms: BudgetTerms = field(default_factory=BudgetTerms)
+    step_checks: dict[str, StepChecks] = field(default_factory=dict)  # agent → front-end checks (motion.py)
     # extractor → configuration IRI → (its full Θ, its measurements); see ``measured``
     configurations: dict[str, dict[str, tuple[dict[str, Value], list[_Measured]]]] = field(default_factory=dict)
     min_measurements: int = 3
@@ -266,11 +268,12 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
     settings = measured_settings(kg)
     cost = fit_cost_model(kg, vocab.extractors, settings)
     budget_terms = BudgetTerms.load(kg)
+    step_checks = load_step_checks(kg)
     configurations = _configurations(measurements, settings, vocab.extractors) if _measured_rule_enabled(kg) else {}
     least = _min_measurements(kg)
     ms = (time.perf_counter() - t0) * 1000
     log.info("compiled %d contexts, %d rules, %d statements at graph version %d in %.0f ms", len(keys), len(rules), len(statements), version, ms)
-    return RuleTable(version, dims, decisions, rules, statements, errors, ms, cost, budget_terms,
+    return RuleTable(version, dims, decisions, rules, statements, errors, ms, cost, budget_terms, step_checks,
                      configurations, least)
 
 

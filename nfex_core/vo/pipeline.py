@@ -27,6 +27,11 @@ Tracking loss (too few keypoints, matches or inliers, or no essential matrix) ne
 is marked lost, its pose follows the last good motion (constant velocity), and the next frame is
 matched against it again (frame-to-frame VO has no map to re-initialise). A run whose lost fraction of
 frame pairs exceeds ``max_lost_fraction`` is *failed* (the paper's "fail").
+
+Front-end checks (``nfex_core.motion.StepChecks``, per agent from the graph; off by default): a pair whose rotation
+or change of heading exceeds what the agent's motion allows is treated as lost in the same way — every
+method of an evaluation gets the same checks. Every pair's estimate (R, unit t) is kept in its
+FrameRecord, with its rotation and direction errors against the ground truth where the frames have poses.
 """
 from __future__ import annotations
 
@@ -37,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from ..datasets.base import Frame, Sequence
+from ..motion import NO_CHECKS, StepChecks, pair_errors, relative_truth
 from ..vision.features import Features
 from ..vision.registry import ExtractorRegistry
 from .geometry import match, relative_pose, triangulate, undistort
@@ -76,8 +82,16 @@ class FrameRecord:
     extraction_ms: float
     matching_ms: float
     lost: bool
-    reason: str = ""  # why tracking was lost
+    reason: str = ""  # why tracking was lost (a failed front-end check starts with "check:")
     metrics: dict[str, float] = field(default_factory=dict)
+    estimate: tuple[np.ndarray, np.ndarray] | None = field(default=None, compare=False, repr=False)  # (R, unit t)
+    errors: tuple[float, float] | None = None  # (rotation, direction) error of the estimate vs ground truth, degrees
+    parallax_px: float = 0.0
+
+    @property
+    def rejected(self) -> bool:
+        """Whether a front-end check (not the geometry) lost this pair."""
+        return self.reason.startswith("check:")
 
 
 @dataclass
@@ -134,6 +148,7 @@ def run_vo(
     measure: Measure | None = None,
     start: int = 0,
     stop: int | None = None,
+    checks: StepChecks = NO_CHECKS,
 ) -> VOResult:
     """Run the VO over ``sequence[start:stop]``; never raises on tracking loss (module docstring)."""
     p = params or VOParams()
@@ -143,6 +158,7 @@ def run_vo(
     records: list[FrameRecord] = []
     stamps: list[float] = []
     velocity = np.eye(4)  # last good T_k-1←k (camera k in camera k-1)
+    moving: tuple[np.ndarray, np.ndarray] | None = None  # the last accepted step that translated (R, t)
     scale = _Scale(p, K)
     prev: tuple[Frame, Choice, Features] | None = None
     shape = (0, 0)
@@ -156,6 +172,9 @@ def run_vo(
         matches = inliers = 0
         lost, reason = False, ""
         metrics: dict[str, float] = {}
+        estimate: tuple[np.ndarray, np.ndarray] | None = None
+        errors: tuple[float, float] | None = None
+        parallax = 0.0
         if prev is None:
             pose = np.eye(4)
             if measure is not None:
@@ -169,6 +188,16 @@ def run_vo(
             if measure is not None:
                 metrics = dict(measure(feats, frame.image, (prev_feats, prev_frame.image)))
             step, matches, inliers, matching_ms, reason = _step(prev_feats, feats, sequence, K, p)
+            if step is not None:
+                estimate, parallax = (step.R, step.t), step.parallax_px
+                if prev_frame.pose is not None and frame.pose is not None:
+                    errors = pair_errors(step.R, step.t, relative_truth(prev_frame.pose, frame.pose))
+                moved = step.parallax_px >= p.still_px
+                reason = checks.verdict(step.R, step.t, frame.timestamp - prev_frame.timestamp, moving, moved)
+                if reason:
+                    step = None
+                elif moved:
+                    moving = estimate
             lost = step is None
             if step is not None:
                 length = scale.step(step, same, prev_frame, frame)
@@ -184,7 +213,7 @@ def run_vo(
         records.append(
             FrameRecord(
                 i, frame.timestamp, choice.extractor, registry.resolve(choice.extractor, choice.params), len(feats),
-                matches, inliers, extraction_ms, matching_ms, lost, reason, metrics,
+                matches, inliers, extraction_ms, matching_ms, lost, reason, metrics, estimate, errors, parallax,
             )
         )
         prev = (frame, choice, feats)

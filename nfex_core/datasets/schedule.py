@@ -1,0 +1,139 @@
+"""Condition schedules: conditions that change along a sequence, where adaptation has to pay.
+
+A schedule names a corruption (``datasets.corruptions``, or ``none``) per range of frame positions:
+
+    none:0-12,dark:13-25,motion_blur:26-38,overexposed:39-50
+
+Ranges are inclusive, given in the positions of the sequence as evaluated (after ``--step``/``--frames``),
+and must cover it exactly: a gap, an overlap or a range past the end is an error that names it. Each
+frame is corrupted by its segment's corruption, seeded as ``corrupt`` seeds it (the same frame and seed
+give the same image whatever the schedule), and carries that segment's context labels. The pairs
+(k−1, k) where k starts a segment straddle a change of conditions: ``Schedule.transitions``.
+
+>>> s = Schedule.parse("none:0-1,dark:2-3", frames=4)
+>>> [seg.corruption for seg in s.segments], s.transitions
+(['none', 'dark'], [2])
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import BadInput
+from .base import Frame, Sequence
+from .corruptions import LABELS, NAMES, CorruptedSequence
+
+_SEGMENT = re.compile(r"^\s*([A-Za-z_]+)\s*:\s*(\d+)\s*-\s*(\d+)\s*$")
+
+
+@dataclass(frozen=True)
+class Segment:
+    corruption: str  # a corruption name or "none"
+    start: int
+    end: int  # inclusive
+
+    @property
+    def label(self) -> str:
+        return f"{self.corruption}:{self.start}-{self.end}"
+
+    def __contains__(self, i: object) -> bool:
+        return isinstance(i, int) and self.start <= i <= self.end
+
+
+@dataclass(frozen=True)
+class Schedule:
+    segments: tuple[Segment, ...]
+
+    @classmethod
+    def parse(cls, text: str, frames: int) -> Schedule:
+        """The schedule ``text`` for a sequence of ``frames`` positions; BadInput names what is wrong."""
+        segments: list[Segment] = []
+        for part in filter(None, (p.strip() for p in text.split(","))):
+            m = _SEGMENT.match(part)
+            if m is None:
+                raise BadInput(f"schedule segment {part!r} is not CORRUPTION:START-END (e.g. dark:13-25)")
+            name, a, b = m.group(1), int(m.group(2)), int(m.group(3))
+            if name != "none" and name not in LABELS:
+                raise BadInput(f"schedule segment {part!r}: unknown corruption {name!r}; known: none, {', '.join(NAMES)}")
+            if b < a:
+                raise BadInput(f"schedule segment {part!r}: its end {b} is before its start {a}")
+            segments.append(Segment(name, a, b))
+        if not segments:
+            raise BadInput("the schedule is empty; give CORRUPTION:START-END segments separated by commas")
+        segments.sort(key=lambda s: s.start)
+        expected = 0
+        for s in segments:
+            if s.start > expected:
+                raise BadInput(f"the schedule leaves frames {expected}-{s.start - 1} uncovered (gap before {s.label})")
+            if s.start < expected:
+                raise BadInput(f"the schedule covers frames {s.start}-{min(s.end, expected - 1)} twice ({s.label} overlaps)")
+            expected = s.end + 1
+        if expected < frames:
+            raise BadInput(f"the schedule leaves frames {expected}-{frames - 1} uncovered (the sequence has {frames} frames)")
+        if expected > frames:
+            raise BadInput(f"the schedule runs to frame {expected - 1} but the sequence has {frames} frames (0-{frames - 1})")
+        return cls(tuple(segments))
+
+    @property
+    def text(self) -> str:
+        return ",".join(s.label for s in self.segments)
+
+    def segment_of(self, i: int) -> Segment:
+        for s in self.segments:
+            if i in s:
+                return s
+        raise IndexError(f"frame {i} is outside the schedule {self.text}")
+
+    @property
+    def transitions(self) -> list[int]:
+        """The positions k (> 0) that start a segment: the pair (k−1, k) straddles a change of conditions."""
+        return [s.start for s in self.segments[1:]]
+
+    def transition_name(self, k: int) -> str:
+        return f"{self.segment_of(k - 1).corruption}→{self.segment_of(k).corruption}"
+
+
+class ScheduledSequence(Sequence):
+    """``base`` with each frame corrupted by its segment's corruption at ``severity`` (module docstring)."""
+
+    def __init__(self, base: Sequence, schedule: Schedule, severity: float, seed: int = 0) -> None:
+        self.base = base
+        self.schedule = schedule
+        self.severity = float(severity)
+        self.seed = int(seed)
+        self.dataset, self.name = base.dataset, base.name
+        self.intrinsics, self.context = base.intrinsics, dict(base.context)
+        # one lazily corrupted view per corruption, over the whole base (motion blur sees true neighbours)
+        self._views: dict[str, Sequence] = {
+            c: CorruptedSequence(base, c, severity, seed) for c in {s.corruption for s in schedule.segments} if c != "none"
+        }
+
+    def __len__(self) -> int:
+        return len(self.base)
+
+    def __getitem__(self, i):  # type: ignore[no-untyped-def]
+        if isinstance(i, slice):
+            raise BadInput("slice the sequence before applying a schedule (the schedule's ranges are its positions)")
+        seg = self.schedule.segment_of(int(i))
+        frame: Frame = self._views[seg.corruption][int(i)] if seg.corruption in self._views else self.base[int(i)]
+        return frame
+
+    @property
+    def timestamps(self) -> np.ndarray:
+        return self.base.timestamps
+
+    @property
+    def poses(self) -> np.ndarray | None:
+        return self.base.poses
+
+
+def apply_schedule(seq: Sequence, schedule: Schedule, severity: float, seed: int = 0) -> Sequence:
+    """``seq`` under ``schedule`` (its length must be what the schedule was parsed for)."""
+    if schedule.segments[-1].end != len(seq) - 1:
+        raise BadInput(f"the schedule {schedule.text} was made for {schedule.segments[-1].end + 1} frames, "
+                       f"the sequence has {len(seq)}")
+    if not 0.0 <= float(severity) <= 1.0:
+        raise BadInput(f"corruption severity must lie in [0, 1], got {severity}")
+    return ScheduledSequence(seq, schedule, severity, seed)

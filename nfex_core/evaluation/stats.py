@@ -1,0 +1,89 @@
+"""Statistics of paired runs: a method's mean with a 95 % confidence interval, and a paired comparison.
+
+Runs are paired: run r uses the same seed (corruption draws, RANSAC order) for every method, so the
+difference d_r = ATE_r(method) − ATE_r(reference) removes what the draw does to both. Reported:
+
+- mean and 95 % CI of the mean: x̄ ± t_{0.975, n−1} · s / √n (Student's t);
+- the paired test: Wilcoxon's signed-rank test on d_r, two-sided, exact for small n (scipy.stats.wilcoxon);
+  it assumes no distribution of ATE (ATE over runs is skewed: a lost track costs metres). The paired t
+  test (scipy.stats.ttest_rel) is reported beside it. A difference is claimed only where Wilcoxon's
+  p < 0.05; otherwise the table says "on par".
+- the relative difference of the means, (x̄ − ȳ) / ȳ.
+
+A run that failed (the VO lost more than the allowed fraction of pairs) has no ATE; a comparison uses the
+runs where both methods have one and says how many that was.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+ALPHA = 0.05
+
+
+@dataclass(frozen=True)
+class Summary:
+    n: int
+    mean: float | None
+    ci95: tuple[float, float] | None
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"n": self.n, "mean": self.mean, "ci95": list(self.ci95) if self.ci95 else None}
+
+
+def summary(values: Sequence[float | None]) -> Summary:
+    xs = np.array([v for v in values if v is not None and math.isfinite(v)], dtype=float)
+    if len(xs) == 0:
+        return Summary(0, None, None)
+    mean = float(xs.mean())
+    if len(xs) < 2:
+        return Summary(len(xs), mean, None)
+    from scipy.stats import t
+
+    half = float(t.ppf(0.975, len(xs) - 1) * xs.std(ddof=1) / math.sqrt(len(xs)))
+    return Summary(len(xs), mean, (mean - half, mean + half))
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """``method`` against ``reference`` over the runs both completed."""
+
+    reference: str
+    pairs: int
+    relative: float | None  # (mean − reference mean) / reference mean, over the paired runs
+    p_wilcoxon: float | None
+    p_ttest: float | None
+
+    @property
+    def verdict(self) -> str:
+        """"better" / "worse" where Wilcoxon's p < 0.05, else "on par"."""
+        if self.p_wilcoxon is None or self.relative is None or self.p_wilcoxon >= ALPHA:
+            return "on par"
+        return "better" if self.relative < 0 else "worse"
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"reference": self.reference, "pairs": self.pairs, "relative": self.relative,
+                "p_wilcoxon": self.p_wilcoxon, "p_ttest": self.p_ttest, "verdict": self.verdict}
+
+
+def compare(values: Sequence[float | None], reference: Sequence[float | None], name: str) -> Comparison:
+    """Paired comparison of two per-run series (index = run)."""
+    pairs = [(a, b) for a, b in zip(values, reference, strict=True)
+             if a is not None and b is not None and math.isfinite(a) and math.isfinite(b)]
+    if len(pairs) < 2:
+        return Comparison(name, len(pairs), None, None, None)
+    a = np.array([p[0] for p in pairs])
+    b = np.array([p[1] for p in pairs])
+    rel = float((a.mean() - b.mean()) / b.mean()) if b.mean() != 0 else None
+    d = a - b
+    if np.allclose(d, 0):
+        return Comparison(name, len(pairs), rel, 1.0, 1.0)
+    from scipy.stats import ttest_rel, wilcoxon
+
+    p_w = float(wilcoxon(a, b).pvalue)
+    p_t = float(ttest_rel(a, b).pvalue)
+    return Comparison(name, len(pairs), rel, p_w, p_t if math.isfinite(p_t) else None)
