@@ -98,6 +98,12 @@ class EmbeddedBackend(Backend):
 
     def __init__(self, path: str | Path | None) -> None:
         self.location = str(path) if path is not None else ":memory:"
+        if path is not None:
+            # Oxigraph creates the store folder but not its parents (~/.local/share on a fresh machine)
+            try:
+                Path(path).parent.mkdir(parents=True, exist_ok=True)
+            except OSError as e:
+                raise StoreUnavailable(f"cannot create the store folder's parent {Path(path).parent}: {e}") from e
         try:
             self._store = ox.Store(str(path)) if path is not None else ox.Store()
         except OSError as e:
