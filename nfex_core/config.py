@@ -5,7 +5,7 @@ The service extends these with its HTTP settings (``service/config.py``); the CL
 | variable      | meaning                                                        | default                         |
 |---------------|----------------------------------------------------------------|---------------------------------|
 | NFEX_STORE    | a folder (embedded Oxigraph store) or an http(s) SPARQL URL    | ``$XDG_DATA_HOME/nfex/store``   |
-| NFEX_HOME     | the folder holding ``ontology/`` and ``rules/``                | the repository of this checkout |
+| NFEX_HOME     | the folder holding ``ontology/``, ``rules/`` and ``models/``   | ``default_home()``              |
 | NFEX_DATA     | the datasets folder (KITTI, EuRoC, handheld, trajectories)     | ``$NFEX_HOME/../shared/data``   |
 | NFEX_MODELS   | the trained-model folder                                       | ``$NFEX_HOME/models``           |
 """
@@ -16,6 +16,15 @@ from dataclasses import dataclass
 from pathlib import Path
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
+"""The repository root when nFEX runs from a checkout (``python -m``, an editable install)."""
+SHIPPED_HOME = Path(__file__).resolve().parent / "_home"
+"""``ontology/``, ``rules/`` and ``models/`` as a wheel ships them (pyproject's force-include); absent in a checkout."""
+
+
+def default_home() -> Path:
+    """Where the ontology, rules and models come from unless ``NFEX_HOME`` says: the copy an installed wheel
+    ships, else this checkout. Every reader goes through ``Settings.home`` (and the DSL grammar through this)."""
+    return SHIPPED_HOME if SHIPPED_HOME.is_dir() else REPO_ROOT
 
 
 def _default_store() -> str:
@@ -32,7 +41,7 @@ class Settings:
 
     @classmethod
     def from_env(cls) -> Settings:
-        home = Path(os.environ.get("NFEX_HOME") or REPO_ROOT)
+        home = Path(os.environ.get("NFEX_HOME") or default_home())
         return cls(
             store=os.environ.get("NFEX_STORE") or _default_store(),
             home=home,

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 import rdflib
 
 from ..config import Settings
+from ..errors import DataMissing
 from .changes import ChangeSet, graph_triples, read_rdf_file
 
 if TYPE_CHECKING:
@@ -41,6 +42,12 @@ def _turtle_files(folder: Path) -> rdflib.Graph:
 @seed_source("ontology")
 def ontology(settings: Settings) -> rdflib.Graph:
     """ontology/*.ttl and the generated measurements under ontology/measurements/."""
+    if not any(settings.ontology_dir.glob("*.ttl")):
+        # a store seeded from nothing answers "unknown condition dimension … known: (none)" forever after
+        raise DataMissing(
+            f"no ontology to seed from: {settings.ontology_dir} holds no *.ttl; set NFEX_HOME to a folder "
+            "holding ontology/ and rules/ (an installed nFEX ships its own)"
+        )
     return _turtle_files(settings.ontology_dir)
 
 
