@@ -8,6 +8,9 @@ The service extends these with its HTTP settings (``service/config.py``); the CL
 | NFEX_HOME     | the folder holding ``ontology/``, ``rules/`` and ``models/``   | ``default_home()``              |
 | NFEX_DATA     | the datasets folder (KITTI, EuRoC, handheld, trajectories)     | ``$NFEX_HOME/../shared/data``   |
 | NFEX_MODELS   | the trained-model folder                                       | ``$NFEX_HOME/models``           |
+| NFEX_STORE_UPDATE   | a SPARQL server's update endpoint                        | the query URL's last segment → ``update`` |
+| NFEX_STORE_USER, NFEX_STORE_PASSWORD | credentials for the SPARQL server (Basic or Digest, as it asks) | none |
+| NFEX_STORE_GRAPH    | the named graph holding the knowledge (servers whose default graph is the union of all graphs) | the default graph |
 """
 from __future__ import annotations
 
@@ -38,6 +41,10 @@ class Settings:
     home: Path
     data: Path
     models: Path
+    store_update: str | None = None
+    store_user: str | None = None
+    store_password: str | None = None
+    store_graph: str | None = None
 
     @classmethod
     def from_env(cls) -> Settings:
@@ -47,6 +54,10 @@ class Settings:
             home=home,
             data=Path(os.environ.get("NFEX_DATA") or home.parent / "shared" / "data"),
             models=Path(os.environ.get("NFEX_MODELS") or home / "models"),
+            store_update=os.environ.get("NFEX_STORE_UPDATE") or None,
+            store_user=os.environ.get("NFEX_STORE_USER") or None,
+            store_password=os.environ.get("NFEX_STORE_PASSWORD") or None,
+            store_graph=os.environ.get("NFEX_STORE_GRAPH") or None,
         )
 
     @property

@@ -28,7 +28,7 @@ from rdflib.namespace import DCTERMS, PROV, RDF, XSD
 from rdflib.term import Literal, URIRef
 
 from ..config import Settings
-from ..errors import BadInput, Conflict, NotFound, PreconditionFailed, ValidationFailed
+from ..errors import BadInput, Conflict, NotFound, PreconditionFailed, StoreUnavailable, ValidationFailed
 from ..namespaces import NFEX, PREFIXES
 from . import validation
 from .backends import Backend, SelectResult, open_backend
@@ -51,6 +51,14 @@ def added_graph(n: int) -> URIRef:
 
 def removed_graph(n: int) -> URIRef:
     return URIRef(f"urn:nfex:version:{n}:removed")
+
+
+STAGE_CHUNK = 1000  # triples per staging request (Virtuoso 7's parser gives up near 5,000)
+
+
+def staging_graph(commit_id: str, kind: str) -> URIRef:
+    """Where a commit's ``added`` or ``removed`` triples wait until it is applied (``_write_version``)."""
+    return URIRef(f"urn:nfex:staging:{commit_id}:{kind}")
 
 
 @dataclass(frozen=True)
@@ -105,7 +113,7 @@ class KnowledgeGraph:
     def open(cls, location: str | None = None, *, settings: Settings | None = None, seed: bool = True) -> KnowledgeGraph:
         """Open ``location`` (default ``NFEX_STORE``); seed an empty store from ontology/ and rules/."""
         settings = settings or Settings.from_env()
-        kg = cls(open_backend(location or settings.store), settings)
+        kg = cls(open_backend(location or settings.store, settings), settings)
         if seed and kg.version == 0:
             from .seed import seed
 
@@ -130,6 +138,14 @@ class KnowledgeGraph:
             f"INSERT {{ GRAPH {n3(META)} {{ {n3(HEAD)} {n3(NFEX.versionNumber)} 0 }} }} "
             f"WHERE {{ FILTER NOT EXISTS {{ GRAPH {n3(META)} {{ {n3(HEAD)} {n3(NFEX.versionNumber)} ?v }} }} }}"
         )
+        # the head lives in a named graph: seen in the default graph, the server shows the union of its graphs
+        if self.backend.ask(f"ASK {{ {n3(HEAD)} {n3(NFEX.versionNumber)} ?v }}"):
+            raise StoreUnavailable(
+                f"the SPARQL server at {self.location} answers queries on its default graph from all its named "
+                "graphs (GraphDB and Virtuoso do by default), where nFEX keeps its version history: the knowledge "
+                "would be read with every past change set mixed in. Keep it in a named graph of its own: set "
+                "NFEX_STORE_GRAPH, e.g. to https://w3id.org/nfex/graph/knowledge"
+            )
 
     # ------------------------------------------------------------------ reading
     @property
@@ -300,15 +316,33 @@ class KnowledgeGraph:
         if rivals or self.version != head:
             self.backend.update(f"DELETE WHERE {{ GRAPH {n3(META)} {{ {n3(claim)} ?p ?o }} }}")
             return False
-        self.backend.update(self._commit_update(change, head, new, author, message, commit_id))
+        self._write_version(change, head, new, author, message, commit_id)
         return self.ask(f"ASK {{ GRAPH {n3(META)} {{ {n3(version_iri(new))} nfex:commitId {n3(Literal(commit_id))} }} }}")
+
+    def _write_version(self, change: ChangeSet, head: int, new: int, author: str, message: str, commit_id: str) -> None:
+        """Stage ``change`` in graphs of this commit, then apply it as version ``new`` if ``head`` is still the head.
+
+        SPARQL servers take an update of any size in one request only in principle: Virtuoso 7 refuses an
+        INSERT DATA of ~5,000 triples (its parser runs out of memory) and a DELETE/INSERT template of a few
+        thousand (its SQL compiler stops at 10,000 lines), and it keeps the earlier operations of a request
+        whose later one fails. So the triples go first, STAGE_CHUNK per request, into staging graphs no query
+        of the knowledge reads; then ``_commit_update`` — one operation of fixed size — moves them in.
+        A writer killed in between leaves its staging graphs behind, unread.
+        """
+        for kind, triples in (("added", change.added), ("removed", change.removed)):
+            items = [triple_n3(t) for t in triples]
+            for i in range(0, len(items), STAGE_CHUNK):
+                body = "\n".join(items[i : i + STAGE_CHUNK])
+                self.backend.update(f"INSERT DATA {{ GRAPH {n3(staging_graph(commit_id, kind))} {{\n{body}\n}} }}")
+        self.backend.update(self._commit_update(change, head, new, author, message, commit_id))
 
     def _commit_update(
         self, change: ChangeSet, head: int, new: int, author: str, message: str, commit_id: str
     ) -> str:
-        """One SPARQL Update that writes the change, its change set, the version node and the new head.
-
-        Guarded by the head still being ``head``; it also drops the claims on versions up to ``new``.
+        """The update that applies a staged change as version ``new``: one DELETE/INSERT … WHERE operation
+        (one transaction on any server) writes the change, its change-set graphs, the version node and the new
+        head, guarded by the head still being ``head``; further operations drop the staging graphs and the
+        claims on versions up to ``new``.
         """
         now = Literal(datetime.now(UTC).isoformat(timespec="milliseconds"), datatype=XSD.dateTime)
         v = version_iri(new)
@@ -323,29 +357,29 @@ class KnowledgeGraph:
             (v, NFEX.commitId, Literal(commit_id)),
             (HEAD, NFEX.versionNumber, Literal(new)),
         ]
-        lines = [_prefix_block(), "DELETE {"]
-        lines += [triple_n3(t) for t in change.removed]
-        lines.append(f"GRAPH {n3(META)} {{ {n3(HEAD)} nfex:versionNumber {head} }}")
-        lines.append("} INSERT {")
-        lines += [triple_n3(t) for t in change.added]
-        lines.append(f"GRAPH {n3(META)} {{")
-        lines += [triple_n3(t) for t in meta]
-        lines.append("}")
-        if change.added:
-            lines.append(f"GRAPH {n3(added_graph(new))} {{")
-            lines += [triple_n3(t) for t in change.added]
-            lines.append("}")
-        if change.removed:
-            lines.append(f"GRAPH {n3(removed_graph(new))} {{")
-            lines += [triple_n3(t) for t in change.removed]
-            lines.append("}")
-        lines.append(f"}} WHERE {{ GRAPH {n3(META)} {{ {n3(HEAD)} nfex:versionNumber {head} }} }}")
-        # claims for this and earlier versions are settled now (losers' and dead writers' included)
-        lines.append(
-            f";\nDELETE {{ GRAPH {n3(META)} {{ ?c ?p ?o }} }} WHERE {{ GRAPH {n3(META)} {{ ?c nfex:claimsVersion ?n ; ?p ?o . "
-            f"FILTER (?n <= {new}) }} }}"
-        )
-        return "\n".join(lines)
+        staged_added, staged_removed = staging_graph(commit_id, "added"), staging_graph(commit_id, "removed")
+        guard = f"GRAPH {n3(META)} {{ {n3(HEAD)} nfex:versionNumber {head} }}"
+        meta_block = "\n".join(triple_n3(t) for t in meta)
+        # each row of the WHERE binds either an added triple (?as ?ap ?ao), a removed one (?rs ?rp ?ro) or
+        # neither (the last branch, so the version is written however small the change); a template triple
+        # with an unbound variable is skipped (SPARQL 1.1 Update §3.1.3)
+        return f"""{_prefix_block()}DELETE {{
+{self.backend.graph_block("?rs ?rp ?ro .")}
+{guard}
+}} INSERT {{
+{self.backend.graph_block("?as ?ap ?ao .")}
+GRAPH {n3(added_graph(new))} {{ ?as ?ap ?ao }}
+GRAPH {n3(removed_graph(new))} {{ ?rs ?rp ?ro }}
+GRAPH {n3(META)} {{
+{meta_block}
+}}
+}} WHERE {{
+{guard}
+{{ GRAPH {n3(staged_added)} {{ ?as ?ap ?ao }} }} UNION {{ GRAPH {n3(staged_removed)} {{ ?rs ?rp ?ro }} }} UNION {{ BIND (1 AS ?one) }}
+}} ;
+DELETE WHERE {{ GRAPH {n3(staged_added)} {{ ?s ?p ?o }} }} ;
+DELETE WHERE {{ GRAPH {n3(staged_removed)} {{ ?s ?p ?o }} }} ;
+DELETE {{ GRAPH {n3(META)} {{ ?c ?p ?o }} }} WHERE {{ GRAPH {n3(META)} {{ ?c nfex:claimsVersion ?n ; ?p ?o . FILTER (?n <= {new}) }} }}"""
 
     def add(self, graph: rdflib.Graph, *, author: str, message: str = "", expected_version: int | None = None) -> CommitResult:
         return self.commit(ChangeSet.adding(graph_triples(graph)), author=author, message=message, expected_version=expected_version)
