@@ -2,7 +2,9 @@
 `oxigraph serve`, and Virtuoso (knowledge in a named graph, updates behind HTTP Digest); each test runs on both."""
 from __future__ import annotations
 
+import io
 from concurrent.futures import ThreadPoolExecutor
+from csv import reader
 
 import httpx
 import pytest
@@ -25,7 +27,8 @@ def test_select_feedback_sparql_and_update_over_a_sparql_server(remote_service: 
     assert sparql_store.backend().ask(f"ASK {{ <{r.json()['iri']}> a <https://w3id.org/nfex#Measurement> }}")
     csv = httpx.get(svc.url + "/sparql", params={"query": "SELECT ?x WHERE { ?x a nfex:FeatureExtractor } ORDER BY ?x"},
                     headers={"accept": "text/csv"})
-    assert csv.headers["content-type"].startswith("text/csv") and csv.text.split()[1:] == [
+    # the server's own CSV passes through (Virtuoso quotes every field, Oxigraph only where needed)
+    assert csv.headers["content-type"].startswith("text/csv") and [row[0] for row in reader(io.StringIO(csv.text))][1:] == [
         "https://w3id.org/nfex#AKAZE", "https://w3id.org/nfex#BRISK", "https://w3id.org/nfex#ORB", "https://w3id.org/nfex#ORB_GRID",
         "https://w3id.org/nfex#SIFT"]
     before = svc.version()
@@ -65,7 +68,9 @@ def test_replicas_share_the_graph_and_never_lose_a_write(remote_service: Service
 
     deadline = time.monotonic() + 10
     while True:
-        sel = httpx.post(remote_replica.url + "/v1/select", json={"context": {"agent": "drone", "texture": "low"}}).json()
+        # generous: the first selection at a new version reloads the vocabulary from the server, which under
+        # load (Virtuoso and both replicas compiling) can take longer than httpx's default 5 s
+        sel = httpx.post(remote_replica.url + "/v1/select", json={"context": {"agent": "drone", "texture": "low"}}, timeout=30).json()
         if "ORB" in {p["extractor"] for p in sel["pruned"]}:
             break
         assert time.monotonic() < deadline, "the replica never saw the rule"
