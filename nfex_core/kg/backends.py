@@ -82,6 +82,8 @@ class Backend(ABC):
 
     location: str
     graph: str | None = None
+    max_inline_triples: int | None = None
+    """The largest change written in one update request; a larger one is staged (``KnowledgeGraph._write_version``)."""
 
     def graph_block(self, triples: str) -> str:
         """Update-template text placing ``triples`` where the knowledge lives (none: nothing, as Virtuoso
@@ -204,6 +206,10 @@ class RemoteBackend(Backend):
     answers a POST of ``application/sparql-query``); with ``graph`` set they name their dataset
     (``protocol.dataset_params``). ``user``/``password`` answer the server's Basic or Digest challenge.
     """
+
+    # Virtuoso 7's SQL compiler stops at 10,000 lines: a DELETE/INSERT template of 1,000 triples in two graphs
+    # fails, 500 passes; nFEX writes a change twice (the knowledge and the version's change set)
+    max_inline_triples = 250
 
     def __init__(
         self,

@@ -320,29 +320,33 @@ class KnowledgeGraph:
         return self.ask(f"ASK {{ GRAPH {n3(META)} {{ {n3(version_iri(new))} nfex:commitId {n3(Literal(commit_id))} }} }}")
 
     def _write_version(self, change: ChangeSet, head: int, new: int, author: str, message: str, commit_id: str) -> None:
-        """Stage ``change`` in graphs of this commit, then apply it as version ``new`` if ``head`` is still the head.
+        """Write ``change`` as version ``new`` if ``head`` is still the head: one operation, one transaction.
 
-        SPARQL servers take an update of any size in one request only in principle: Virtuoso 7 refuses an
-        INSERT DATA of ~5,000 triples (its parser runs out of memory) and a DELETE/INSERT template of a few
-        thousand (its SQL compiler stops at 10,000 lines), and it keeps the earlier operations of a request
-        whose later one fails. So the triples go first, STAGE_CHUNK per request, into staging graphs no query
-        of the knowledge reads; then ``_commit_update`` — one operation of fixed size — moves them in.
-        A writer killed in between leaves its staging graphs behind, unread.
+        A change the backend takes in one request (``max_inline_triples``; any size in the embedded store)
+        is written inline. SPARQL servers take an update of any size only in principle: Virtuoso 7 refuses an
+        INSERT DATA of ~5,000 triples (its parser runs out of memory) and a DELETE/INSERT template of ~1,000
+        (its SQL compiler stops at 10,000 lines), and it keeps the earlier operations of a request whose later
+        one fails. So a larger change is staged first, STAGE_CHUNK triples a request, in graphs of this commit
+        that no query of the knowledge reads, and one operation of fixed size moves it in. A writer killed
+        while staging leaves its staging graphs behind, unread.
         """
-        for kind, triples in (("added", change.added), ("removed", change.removed)):
-            items = [triple_n3(t) for t in triples]
-            for i in range(0, len(items), STAGE_CHUNK):
-                body = "\n".join(items[i : i + STAGE_CHUNK])
-                self.backend.update(f"INSERT DATA {{ GRAPH {n3(staging_graph(commit_id, kind))} {{\n{body}\n}} }}")
-        self.backend.update(self._commit_update(change, head, new, author, message, commit_id))
+        limit = self.backend.max_inline_triples
+        staged = limit is not None and len(change.added) + len(change.removed) > limit
+        if staged:
+            for kind, triples in (("added", change.added), ("removed", change.removed)):
+                items = [triple_n3(t) for t in triples]
+                for i in range(0, len(items), STAGE_CHUNK):
+                    body = "\n".join(items[i : i + STAGE_CHUNK])
+                    self.backend.update(f"INSERT DATA {{ GRAPH {n3(staging_graph(commit_id, kind))} {{\n{body}\n}} }}")
+        self.backend.update(self._commit_update(change, head, new, author, message, commit_id, staged=staged))
 
     def _commit_update(
-        self, change: ChangeSet, head: int, new: int, author: str, message: str, commit_id: str
+        self, change: ChangeSet, head: int, new: int, author: str, message: str, commit_id: str, *, staged: bool = False
     ) -> str:
-        """The update that applies a staged change as version ``new``: one DELETE/INSERT … WHERE operation
-        (one transaction on any server) writes the change, its change-set graphs, the version node and the new
-        head, guarded by the head still being ``head``; further operations drop the staging graphs and the
-        claims on versions up to ``new``.
+        """The update writing version ``new``: one DELETE/INSERT … WHERE operation (one transaction on any
+        server) writes the change, its change-set graphs, the version node and the new head, guarded by the
+        head still being ``head``; further operations drop the claims on versions up to ``new`` (and the
+        staging graphs). ``staged``: the triples are read from the staging graphs rather than written out.
         """
         now = Literal(datetime.now(UTC).isoformat(timespec="milliseconds"), datatype=XSD.dateTime)
         v = version_iri(new)
@@ -357,29 +361,28 @@ class KnowledgeGraph:
             (v, NFEX.commitId, Literal(commit_id)),
             (HEAD, NFEX.versionNumber, Literal(new)),
         ]
-        staged_added, staged_removed = staging_graph(commit_id, "added"), staging_graph(commit_id, "removed")
         guard = f"GRAPH {n3(META)} {{ {n3(HEAD)} nfex:versionNumber {head} }}"
         meta_block = "\n".join(triple_n3(t) for t in meta)
-        # each row of the WHERE binds either an added triple (?as ?ap ?ao), a removed one (?rs ?rp ?ro) or
-        # neither (the last branch, so the version is written however small the change); a template triple
-        # with an unbound variable is skipped (SPARQL 1.1 Update §3.1.3)
-        return f"""{_prefix_block()}DELETE {{
-{self.backend.graph_block("?rs ?rp ?ro .")}
-{guard}
-}} INSERT {{
-{self.backend.graph_block("?as ?ap ?ao .")}
-GRAPH {n3(added_graph(new))} {{ ?as ?ap ?ao }}
-GRAPH {n3(removed_graph(new))} {{ ?rs ?rp ?ro }}
-GRAPH {n3(META)} {{
-{meta_block}
-}}
-}} WHERE {{
-{guard}
-{{ GRAPH {n3(staged_added)} {{ ?as ?ap ?ao }} }} UNION {{ GRAPH {n3(staged_removed)} {{ ?rs ?rp ?ro }} }} UNION {{ BIND (1 AS ?one) }}
-}} ;
-DELETE WHERE {{ GRAPH {n3(staged_added)} {{ ?s ?p ?o }} }} ;
-DELETE WHERE {{ GRAPH {n3(staged_removed)} {{ ?s ?p ?o }} }} ;
-DELETE {{ GRAPH {n3(META)} {{ ?c ?p ?o }} }} WHERE {{ GRAPH {n3(META)} {{ ?c nfex:claimsVersion ?n ; ?p ?o . FILTER (?n <= {new}) }} }}"""
+        tail = [f"DELETE {{ GRAPH {n3(META)} {{ ?c ?p ?o }} }} WHERE {{ GRAPH {n3(META)} {{ ?c nfex:claimsVersion ?n ; ?p ?o . FILTER (?n <= {new}) }} }}"]
+        if staged:
+            staged_added, staged_removed = staging_graph(commit_id, "added"), staging_graph(commit_id, "removed")
+            removed, added = "?rs ?rp ?ro .", "?as ?ap ?ao ."
+            # each row binds an added triple, a removed one or neither (the last branch: the version is written
+            # however the change is made up); a template triple with an unbound variable is skipped (§3.1.3)
+            where = (f"{guard}\n{{ GRAPH {n3(staged_added)} {{ ?as ?ap ?ao }} }} UNION "
+                     f"{{ GRAPH {n3(staged_removed)} {{ ?rs ?rp ?ro }} }} UNION {{ BIND (1 AS ?one) }}")
+            tail = [f"DELETE WHERE {{ GRAPH {n3(g)} {{ ?s ?p ?o }} }}" for g in (staged_added, staged_removed)] + tail
+        else:
+            removed = "\n".join(triple_n3(t) for t in change.removed)
+            added = "\n".join(triple_n3(t) for t in change.added)
+            where = guard
+        change_sets = [f"GRAPH {n3(graph)} {{\n{body}\n}}" for graph, body in ((added_graph(new), added), (removed_graph(new), removed))
+                       if body.strip()]
+        return "\n".join([
+            f"{_prefix_block()}DELETE {{", self.backend.graph_block(removed), guard,
+            "} INSERT {", self.backend.graph_block(added), *change_sets, f"GRAPH {n3(META)} {{\n{meta_block}\n}}",
+            f"}} WHERE {{\n{where}\n}}",
+        ] + [f";\n{op}" for op in tail])
 
     def add(self, graph: rdflib.Graph, *, author: str, message: str = "", expected_version: int | None = None) -> CommitResult:
         return self.commit(ChangeSet.adding(graph_triples(graph)), author=author, message=message, expected_version=expected_version)
