@@ -15,6 +15,7 @@ from nfex_core.errors import StoreUnavailable
 from nfex_core.kg import KnowledgeGraph, parse_rdf
 from nfex_core.kg.protocol import ServerAuth, dataset_params
 from nfex_core.kg.store import META
+from nfex_core.knowledge import open_graph
 from tests.conftest import KNOWLEDGE_GRAPH, SparqlServer
 
 CONFIG = """@prefix nfex: <https://w3id.org/nfex#> .
@@ -61,7 +62,7 @@ def test_credentials_answer_the_scheme_the_server_asks_for(scheme: str) -> None:
 
 def test_the_knowledge_can_live_in_a_named_graph_of_the_embedded_store(tmp_path: Path) -> None:
     settings = dataclasses.replace(Settings.from_env(), store_graph=KNOWLEDGE_GRAPH)
-    kg = KnowledgeGraph.open(str(tmp_path / "store"), settings=settings)
+    kg = open_graph(str(tmp_path / "store"), settings=settings)
     n = kg.triple_count()
     assert n > 1000 and kg.add(parse_rdf(CONFIG), author="t").version == 2
     raw = kg.backend._store  # type: ignore[attr-defined]

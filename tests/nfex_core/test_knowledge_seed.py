@@ -8,10 +8,10 @@ import pytest
 
 from nfex_core.config import Settings
 from nfex_core.errors import DataMissing
-from nfex_core.kg import KnowledgeGraph
+from nfex_core.knowledge import open_graph
 
 
 def test_a_home_without_an_ontology_is_a_clear_error(tmp_path: Path) -> None:
     settings = dataclasses.replace(Settings.from_env(), home=tmp_path / "empty-home")
     with pytest.raises(DataMissing, match="no ontology to seed from"):
-        KnowledgeGraph.open(str(tmp_path / "store"), settings=settings)
+        open_graph(str(tmp_path / "store"), settings=settings)
