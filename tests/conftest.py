@@ -268,6 +268,16 @@ def start_sparql_server(name: str, folder: Path) -> tuple[subprocess.Popen, Spar
     return _start_virtuoso(folder, timeout_s=10)
 
 
+@pytest.fixture
+def oxigraph_server(tmp_path: Path) -> Iterator[str]:
+    """A real ``oxigraph serve`` process on a free loopback port; yields its base URL (tests of one server)."""
+    proc, server = _start_oxigraph(tmp_path)
+    try:
+        yield server.url
+    finally:
+        stop_process(proc, timeout=10)
+
+
 @pytest.fixture(params=sorted(SPARQL_SERVERS))
 def sparql_server(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[SparqlServer]:
     """A real, empty SPARQL server per test: ``oxigraph serve`` and Virtuoso (each test runs on both)."""

@@ -91,6 +91,14 @@ def sparql_store(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPa
 
 
 @pytest.fixture(scope="session")
+def oxigraph_url(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    """An ``oxigraph serve`` of its own, as docker-compose.yml runs it (tests of that one server)."""
+    proc, server = start_sparql_server("oxigraph", tmp_path_factory.mktemp("oxigraph"))
+    yield server.url
+    stop_process(proc)
+
+
+@pytest.fixture(scope="session")
 def remote_service(sparql_store: SparqlServer, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Service]:
     """The service in remote-store mode: its graph lives in a real SPARQL server."""
     folder = tmp_path_factory.mktemp("remote-service")
