@@ -1,13 +1,26 @@
-# The nFEX service image. docker-compose.yml runs several of these against one SPARQL server.
-FROM python:3.11-slim
-WORKDIR /app
+# syntax=docker/dockerfile:1
+# Two images for docker-compose.yml: the SPARQL server (target `sparql`) and the nFEX service (the default,
+# last stage), several replicas of which share that server.
+ARG OXIGRAPH_VERSION=0.5.13
+
+# Oxigraph's image is distroless (no shell, no HTTP client): a static busybox gives its healthcheck a wget.
+FROM busybox:1.37-uclibc AS busybox
+FROM ghcr.io/oxigraph/oxigraph:${OXIGRAPH_VERSION} AS sparql
+COPY --from=busybox /bin/busybox /usr/local/bin/busybox
+
+FROM python:3.11-slim AS service
+# a regular (non-editable) install: the wheel carries ontology/, rules/ and models/ (pyproject's force-include)
+WORKDIR /src
 COPY pyproject.toml README.md ./
 COPY nfex_core ./nfex_core
 COPY service ./service
 COPY ontology ./ontology
 COPY rules ./rules
 COPY models ./models
-RUN pip install --no-cache-dir -e .
-ENV NFEX_HOST=0.0.0.0 NFEX_PORT=8000 NFEX_HOME=/app
+RUN pip install --no-cache-dir . && rm -rf /src
+RUN useradd --create-home --uid 10001 nfex
+USER nfex
+WORKDIR /home/nfex
+ENV NFEX_HOST=0.0.0.0 NFEX_PORT=8000
 EXPOSE 8000
 CMD ["nfex", "serve", "--host", "0.0.0.0", "--port", "8000"]

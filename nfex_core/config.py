@@ -6,12 +6,15 @@ Nothing else in nFEX reads the environment: settings are passed down explicitly.
 | variable            | meaning                                                          | default                         |
 |---------------------|------------------------------------------------------------------|---------------------------------|
 | NFEX_STORE          | a folder (embedded Oxigraph store) or an http(s) SPARQL URL      | ``$XDG_DATA_HOME/nfex/store``   |
-| NFEX_HOME           | the folder holding ``ontology/`` and ``rules/``                  | the repository of this checkout |
+| NFEX_HOME           | the folder holding ``ontology/``, ``rules/`` and ``models/``     | ``default_home()``              |
 | NFEX_DATA           | the datasets folder (KITTI, EuRoC, handheld, trajectories)       | ``$NFEX_HOME/../shared/data``   |
 | NFEX_MODELS         | the trained-model folder                                         | ``$NFEX_HOME/models``           |
 | NFEX_NEURAL         | symbolic, paramnet, selectornet or both (neural.serve)           | both                            |
 | NFEX_SCORE_THREADS  | candidates extracted side by side when scoring a frame           | the CPU count, at most 8        |
 | NFEX_AUTHOR         | the author recorded on CLI writes                                | ``<user> (cli)``                |
+| NFEX_STORE_UPDATE   | a SPARQL server's update endpoint                                | the query URL's last segment → ``update`` |
+| NFEX_STORE_USER, NFEX_STORE_PASSWORD | credentials for the SPARQL server (Basic or Digest, as it asks) | none              |
+| NFEX_STORE_GRAPH    | the named graph holding the knowledge (docs/store.md)            | the default graph               |
 """
 from __future__ import annotations
 
@@ -22,6 +25,15 @@ from dataclasses import dataclass
 from pathlib import Path
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
+"""The repository root when nFEX runs from a checkout (``python -m``, an editable install)."""
+SHIPPED_HOME = Path(__file__).resolve().parent / "_home"
+"""``ontology/``, ``rules/`` and ``models/`` as a wheel ships them (pyproject's force-include); absent in a checkout."""
+
+
+def default_home() -> Path:
+    """Where the ontology, rules and models come from unless ``NFEX_HOME`` says: the copy an installed wheel
+    ships, else this checkout. Every reader goes through ``Settings.home`` (and the DSL grammar through this)."""
+    return SHIPPED_HOME if SHIPPED_HOME.is_dir() else REPO_ROOT
 
 
 def _default_store(env: Mapping[str, str]) -> str:
@@ -38,11 +50,15 @@ class Settings:
     neural: str = "both"
     score_threads: int = 0  # 0: the CPU count, at most 8
     author: str = ""
+    store_update: str | None = None
+    store_user: str | None = None
+    store_password: str | None = None
+    store_graph: str | None = None
 
     @classmethod
     def from_env(cls, env: Mapping[str, str] | None = None) -> Settings:
         env = os.environ if env is None else env
-        home = Path(env.get("NFEX_HOME") or REPO_ROOT)
+        home = Path(env.get("NFEX_HOME") or default_home())
         return cls(
             store=env.get("NFEX_STORE") or _default_store(env),
             home=home,
@@ -51,6 +67,10 @@ class Settings:
             neural=env.get("NFEX_NEURAL") or "both",
             score_threads=int(env.get("NFEX_SCORE_THREADS") or 0),
             author=env.get("NFEX_AUTHOR") or "",
+            store_update=env.get("NFEX_STORE_UPDATE") or None,
+            store_user=env.get("NFEX_STORE_USER") or None,
+            store_password=env.get("NFEX_STORE_PASSWORD") or None,
+            store_graph=env.get("NFEX_STORE_GRAPH") or None,
         )
 
     @property

@@ -10,6 +10,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Iterator
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import httpx
@@ -17,6 +18,7 @@ import pytest
 
 from nfex_core.config import Settings
 from nfex_core.kg import KnowledgeGraph
+from nfex_core.kg.backends import Backend, open_backend
 from nfex_core.knowledge import open_graph
 
 REPO = Path(__file__).resolve().parent.parent
@@ -159,22 +161,129 @@ def stop_process(proc: subprocess.Popen, timeout: float = 20) -> None:  # type: 
         proc.kill()
 
 
-@pytest.fixture
-def oxigraph_server(tmp_path: Path) -> Iterator[str]:
-    """A real ``oxigraph serve`` process on a free loopback port; yields its base URL."""
+@dataclass(frozen=True)
+class SparqlServer:
+    """A real SPARQL server process on a loopback port, and the ``NFEX_STORE*`` settings that reach it."""
+
+    name: str
+    url: str
+    """``NFEX_STORE``"""
+    env: dict[str, str] = field(default_factory=dict)
+    """the further ``NFEX_STORE_*`` settings this server needs (update endpoint, credentials, named graph)"""
+
+    def settings(self) -> Settings:
+        base = dataclasses.replace(Settings.from_env(), store=self.url)
+        fields = {name: self.env.get(f"NFEX_{name.upper()}") for name in ("store_update", "store_user", "store_password", "store_graph")}
+        return dataclasses.replace(base, **fields)
+
+    def open(self, *, seed: bool = True) -> KnowledgeGraph:
+        return open_graph(settings=self.settings(), seed_empty=seed)
+
+    def backend(self) -> Backend:
+        """The server as nFEX's backend sees it, without a KnowledgeGraph on top (no seeding, no checks)."""
+        return open_backend(self.url, self.settings())
+
+
+def _start_oxigraph(folder: Path, *extra: str) -> tuple[subprocess.Popen, SparqlServer]:  # type: ignore[type-arg]
     exe = shutil.which("oxigraph") or str(Path(sys.executable).parent / "oxigraph")
     if not Path(exe).exists():
         pytest.skip("the oxigraph server binary is not installed (pip install oxigraph)")
     port = free_port()
-    proc = subprocess.Popen(
-        [exe, "serve", "--location", str(tmp_path / "oxigraph"), "--bind", f"127.0.0.1:{port}"],
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-    )
+    proc = subprocess.Popen([exe, "serve", "--location", str(folder / "oxigraph"), "--bind", f"127.0.0.1:{port}", *extra],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     url = f"http://127.0.0.1:{port}"
     try:
         wait_http(url + "/query?query=ASK%7B%7D", proc=proc)
-        yield url
+    except BaseException:
+        stop_process(proc, timeout=10)
+        raise
+    return proc, SparqlServer("oxigraph", url)
+
+
+VIRTUOSO_INI = """[Database]
+DatabaseFile = {db}/virtuoso.db
+ErrorLogFile = {db}/virtuoso.log
+LockFile = {db}/virtuoso.lck
+TransactionFile = {db}/virtuoso.trx
+xa_persistent_file = {db}/virtuoso.pxa
+[TempDatabase]
+DatabaseFile = {db}/virtuoso-temp.db
+TransactionFile = {db}/virtuoso-temp.trx
+[Parameters]
+ServerPort = 127.0.0.1:{sql_port}
+DisableUnixSocket = 1
+; as Debian's virtuoso.ini: with the default (1) ASK answers come back as SELECTs of __ASK_RETVAL
+CaseMode = 2
+DirsAllowed = {db}
+NumberOfBuffers = 10000
+MaxDirtyBuffers = 6000
+[HTTPServer]
+ServerPort = 127.0.0.1:{http_port}
+ServerRoot = {db}
+ServerThreads = 10
+Charset = UTF-8
+[SPARQL]
+; a CONSTRUCT of the whole knowledge graph must not be cut at Virtuoso's default 10,000 rows
+ResultSetMaxRows = 1000000
+MaxQueryCostEstimationTime = 400
+; the server itself cancels a query past it, as oxigraph serve --timeout-s 10 does
+MaxQueryExecutionTime = {timeout_s}
+"""
+KNOWLEDGE_GRAPH = "https://w3id.org/nfex/graph/knowledge"
+
+
+def _start_virtuoso(folder: Path, timeout_s: int = 60) -> tuple[subprocess.Popen, SparqlServer]:  # type: ignore[type-arg]
+    """Virtuoso (Debian's virtuoso-opensource-7-bin) with a private database and ini on free loopback ports.
+
+    Its default graph is the union of all graphs, so the knowledge goes in a named graph; updates need a
+    user with SPARQL update rights: the database's own ``dba`` through ``/sparql-auth`` (HTTP Digest)."""
+    exe = shutil.which("virtuoso-t")
+    if exe is None:
+        pytest.skip("Virtuoso is not installed (apt-get install virtuoso-opensource-7-bin; make test installs it)")
+    db = folder / "virtuoso"
+    db.mkdir(parents=True)
+    http_port = free_port()
+    ini = db / "virtuoso.ini"
+    ini.write_text(VIRTUOSO_INI.format(db=db, sql_port=free_port(), http_port=http_port, timeout_s=timeout_s))
+    proc = subprocess.Popen([exe, "+foreground", "+configfile", str(ini)], cwd=db,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    endpoint = f"http://127.0.0.1:{http_port}/sparql-auth"
+    try:
+        wait_http(f"http://127.0.0.1:{http_port}/sparql?query=ASK%7B%7D", timeout=60, proc=proc)
+    except BaseException:
+        stop_process(proc, timeout=10)
+        raise
+    env = {"NFEX_STORE_UPDATE": endpoint, "NFEX_STORE_USER": "dba", "NFEX_STORE_PASSWORD": "dba",
+           "NFEX_STORE_GRAPH": KNOWLEDGE_GRAPH}
+    return proc, SparqlServer("virtuoso", endpoint, env)
+
+
+SPARQL_SERVERS = {"oxigraph": _start_oxigraph, "virtuoso": _start_virtuoso}
+
+
+def start_sparql_server(name: str, folder: Path) -> tuple[subprocess.Popen, SparqlServer]:  # type: ignore[type-arg]
+    """A fresh server of kind ``name``; the service tests pass the time limit the compose file gives Oxigraph."""
+    if name == "oxigraph":
+        return _start_oxigraph(folder, "--timeout-s", "10")
+    return _start_virtuoso(folder, timeout_s=10)
+
+
+@pytest.fixture
+def oxigraph_server(tmp_path: Path) -> Iterator[str]:
+    """A real ``oxigraph serve`` process on a free loopback port; yields its base URL (tests of one server)."""
+    proc, server = _start_oxigraph(tmp_path)
+    try:
+        yield server.url
+    finally:
+        stop_process(proc, timeout=10)
+
+
+@pytest.fixture(params=sorted(SPARQL_SERVERS))
+def sparql_server(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[SparqlServer]:
+    """A real, empty SPARQL server per test: ``oxigraph serve`` and Virtuoso (each test runs on both)."""
+    proc, server = SPARQL_SERVERS[request.param](tmp_path)
+    try:
+        yield server
     finally:
         stop_process(proc, timeout=10)
 

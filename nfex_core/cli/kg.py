@@ -136,10 +136,16 @@ class ExportFormat(StrEnum):
 def export(
     format: Annotated[ExportFormat, typer.Option("--format", help="Serialisation.")] = ExportFormat.turtle,
     output: Annotated[Path | None, typer.Option("--output", "-o", help="Write to a file instead of stdout.")] = None,
+    owl: Annotated[bool, typer.Option("--owl", help="OWL only: leave out the SHACL shapes (for Protégé and reasoners).")] = False,
 ) -> None:
     """Export the knowledge (the default graph) — it opens in Protégé and re-imports with `kg add`."""
     kg = open_kg()
-    text = kg.export(format.value)
+    if owl:
+        from ..kg.owl import owl_only
+
+        text = owl_only(kg.data_graph()).serialize(format=format.value)
+    else:
+        text = kg.export(format.value)
     if output:
         output.write_text(text)
         typer.echo(f"wrote {output}")

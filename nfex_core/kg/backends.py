@@ -14,6 +14,9 @@ in the middle of an update leaves the last committed state (RocksDB's write-ahea
 from __future__ import annotations
 
 import json
+import random
+import re
+import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,10 +28,14 @@ import pyoxigraph as ox
 import rdflib
 from rdflib.term import BNode, Literal, Node, URIRef
 
-from ..errors import BadInput, ParseError, QueryLimitExceeded, StoreUnavailable
+from ..config import Settings
+from ..errors import BadInput, Conflict, ParseError, QueryLimitExceeded, StoreUnavailable
+from .protocol import ServerAuth, dataset_params
 from .terms import from_oxigraph, from_sparql_json
 
 Row = dict[str, Node]
+DEADLOCK_RETRIES = 8
+_SERIALIZATION_FAILURE = re.compile(r"\b40001\b")
 
 
 class Sink(Protocol):
@@ -76,9 +83,21 @@ GRAPH_FORMATS: dict[str, ox.RdfFormat] = {
 
 
 class Backend(ABC):
-    """The five operations every store offers."""
+    """The five operations every store offers.
+
+    ``graph`` is the named graph holding the knowledge (``NFEX_STORE_GRAPH``), or None for the store's
+    default graph: queries see it as their default graph; writers put knowledge triples in it
+    (``graph_block``)."""
 
     location: str
+    graph: str | None = None
+    max_inline_triples: int | None = None
+    """The largest change written in one update request; a larger one is staged (``KnowledgeGraph._write_version``)."""
+
+    def graph_block(self, triples: str) -> str:
+        """Update-template text placing ``triples`` where the knowledge lives (none: nothing, as Virtuoso
+        refuses an empty ``GRAPH`` block)."""
+        return f"GRAPH <{self.graph}> {{\n{triples}\n}}" if self.graph and triples.strip() else triples
 
     @abstractmethod
     def select(self, query: str) -> SelectResult: ...
@@ -112,8 +131,16 @@ class EmbeddedBackend(Backend):
         backend._store = store
         return backend
 
-    def __init__(self, path: str | Path | None) -> None:
+    def __init__(self, path: str | Path | None, *, graph: str | None = None) -> None:
         self.location = str(path) if path is not None else ":memory:"
+        self.graph = graph
+        self._dataset: dict[str, Any] = {"default_graph": ox.NamedNode(graph)} if graph else {}
+        if path is not None:
+            # Oxigraph creates the store folder but not its parents (~/.local/share on a fresh machine)
+            try:
+                Path(path).parent.mkdir(parents=True, exist_ok=True)
+            except OSError as e:
+                raise StoreUnavailable(f"cannot create the store folder's parent {Path(path).parent}: {e}") from e
         try:
             self._store = ox.Store(str(path)) if path is not None else ox.Store()
         except OSError as e:
@@ -126,7 +153,7 @@ class EmbeddedBackend(Backend):
 
     def _run(self, query: str) -> Any:
         try:
-            return self._store.query(query)
+            return self._store.query(query, **self._dataset)
         except SyntaxError as e:
             raise ParseError(f"invalid SPARQL query: {e}") from e
 
@@ -189,10 +216,27 @@ class RemoteBackend(Backend):
 
     ``url`` is the query endpoint. The update endpoint is ``update_url`` or, by convention, the query
     URL with its last path segment replaced by ``update`` (Oxigraph ``/query`` → ``/update``; Fuseki
-    ``/ds/query`` → ``/ds/update``; a bare ``http://host:port`` gets ``/query`` and ``/update``).
+    ``/ds/query`` → ``/ds/update``; a bare ``http://host:port`` gets ``/query`` and ``/update``); servers
+    with one endpoint for both (Virtuoso's ``/sparql``) or another name (GraphDB's ``…/statements``) set it.
+    Queries are POSTed URL-encoded (Protocol §2.1.2), the one form every server takes (Virtuoso 7.2 never
+    answers a POST of ``application/sparql-query``); with ``graph`` set they name their dataset
+    (``protocol.dataset_params``). ``user``/``password`` answer the server's Basic or Digest challenge.
     """
 
-    def __init__(self, url: str, *, update_url: str | None = None, timeout_s: float = 30.0) -> None:
+    # Virtuoso 7's SQL compiler stops at 10,000 lines: a DELETE/INSERT template of 1,000 triples in two graphs
+    # fails, 500 passes; nFEX writes a change twice (the knowledge and the version's change set)
+    max_inline_triples = 250
+
+    def __init__(
+        self,
+        url: str,
+        *,
+        update_url: str | None = None,
+        user: str | None = None,
+        password: str | None = None,
+        graph: str | None = None,
+        timeout_s: float = 30.0,
+    ) -> None:
         parsed = urlparse(url)
         path = parsed.path.rstrip("/")
         if not path:
@@ -204,15 +248,16 @@ class RemoteBackend(Backend):
         self.location = query_url
         self.query_url = query_url
         self.update_url = update_url or default_update
-        self._client = httpx.Client(timeout=timeout_s)
+        self.graph = graph
+        auth = ServerAuth(user, password or "") if user else None
+        self._client = httpx.Client(timeout=timeout_s, auth=auth)
+
+    def _query_form(self, query: str) -> dict[str, str | list[str]]:
+        return {"query": query, **dataset_params(query, self.graph)}
 
     def _post_query(self, query: str, accept: str) -> httpx.Response:
         try:
-            r = self._client.post(
-                self.query_url,
-                content=query.encode("utf-8"),
-                headers={"Content-Type": "application/sparql-query", "Accept": accept},
-            )
+            r = self._client.post(self.query_url, data=self._query_form(query), headers={"Accept": accept})
         except httpx.TimeoutException as e:
             raise QueryLimitExceeded(f"the SPARQL server at {self.query_url} did not answer in time") from e
         except httpx.HTTPError as e:
@@ -224,6 +269,11 @@ class RemoteBackend(Backend):
         if r.status_code < 300:
             return
         text = r.text.strip()[:500]
+        if r.status_code in (401, 403):
+            raise StoreUnavailable(
+                f"the SPARQL server refused the {what} ({r.status_code}): check NFEX_STORE_USER / NFEX_STORE_PASSWORD"
+                + (f": {text}" if text else "")
+            )
         if r.status_code == 400:
             raise ParseError(f"the SPARQL server rejected the {what}: {text}")
         raise StoreUnavailable(f"the SPARQL server answered {r.status_code} to a {what}: {text}")
@@ -238,6 +288,9 @@ class RemoteBackend(Backend):
 
     def ask(self, query: str) -> bool:
         data = self._post_query(query, "application/sparql-results+json").json()
+        if "boolean" not in data and data.get("head", {}).get("vars") == ["__ASK_RETVAL"]:
+            # Virtuoso with CaseMode 1 answers an ASK as a SELECT of its return value (no row: false)
+            return any(int(b["__ASK_RETVAL"]["value"]) for b in data["results"]["bindings"])
         if "boolean" not in data:
             raise BadInput("expected an ASK query")
         return bool(data["boolean"])
@@ -247,14 +300,22 @@ class RemoteBackend(Backend):
         return rdflib.Graph().parse(data=r.text, format="nt")
 
     def update(self, update: str) -> None:
-        try:
-            r = self._client.post(
-                self.update_url,
-                content=update.encode("utf-8"),
-                headers={"Content-Type": "application/sparql-update"},
-            )
-        except httpx.HTTPError as e:
-            raise StoreUnavailable(f"cannot reach the SPARQL server at {self.update_url}: {e}") from e
+        for attempt in range(DEADLOCK_RETRIES + 1):
+            try:
+                r = self._client.post(
+                    self.update_url,
+                    content=update.encode("utf-8"),
+                    headers={"Content-Type": "application/sparql-update"},
+                )
+            except httpx.HTTPError as e:
+                raise StoreUnavailable(f"cannot reach the SPARQL server at {self.update_url}: {e}") from e
+            if r.status_code < 500 or not _SERIALIZATION_FAILURE.search(r.text[:300]):
+                break
+            # the server aborted the transaction to break a deadlock (SQLSTATE 40001; Virtuoso under concurrent
+            # writers): nothing of it was applied, and every update nFEX sends is idempotent, so send it again
+            time.sleep(random.uniform(0.01, 0.05) * (attempt + 1))
+        else:
+            raise Conflict(f"the SPARQL server at {self.update_url} kept aborting the update as deadlocked; retry")
         self._check(r, "update")
 
     def query_to(self, query: str, media: str, out: Sink, timeout_s: float | None = None) -> str:
@@ -262,8 +323,8 @@ class RemoteBackend(Backend):
             with self._client.stream(
                 "POST",
                 self.query_url,
-                content=query.encode("utf-8"),
-                headers={"Content-Type": "application/sparql-query", "Accept": media},
+                data=self._query_form(query),
+                headers={"Accept": media},
                 timeout=timeout_s if timeout_s is not None else httpx.USE_CLIENT_DEFAULT,
             ) as r:
                 if r.status_code >= 300:
@@ -281,13 +342,18 @@ class RemoteBackend(Backend):
         self._client.close()
 
 
-def open_backend(location: str) -> Backend:
-    """A backend for ``NFEX_STORE``: an http(s) URL, ``:memory:``, or a folder."""
+def open_backend(location: str, settings: Settings | None = None) -> Backend:
+    """A backend for ``NFEX_STORE``: an http(s) URL, ``:memory:``, or a folder; ``settings`` supply the
+    update endpoint, credentials and knowledge graph (``NFEX_STORE_UPDATE``, ``_USER``, ``_PASSWORD``, ``_GRAPH``)."""
+    graph = settings.store_graph if settings else None
     if location.startswith(("http://", "https://")):
-        return RemoteBackend(location)
+        if settings is None:
+            return RemoteBackend(location)
+        return RemoteBackend(location, update_url=settings.store_update, user=settings.store_user,
+                             password=settings.store_password, graph=graph)
     if location == ":memory:":
-        return EmbeddedBackend(None)
-    return EmbeddedBackend(Path(location).expanduser())
+        return EmbeddedBackend(None, graph=graph)
+    return EmbeddedBackend(Path(location).expanduser(), graph=graph)
 
 
 def json_bindings(result: SelectResult) -> dict[str, Any]:

@@ -10,6 +10,7 @@ from pathlib import Path
 import rdflib
 
 from ..config import Settings
+from ..errors import DataMissing
 from .backends import EmbeddedBackend
 from .changes import graph_triples, read_rdf_file
 from .store import KnowledgeGraph
@@ -27,6 +28,12 @@ def turtle_files(folder: Path) -> rdflib.Graph:
 
 def ontology_graph(settings: Settings) -> rdflib.Graph:
     """ontology/*.ttl and the generated measurements under ontology/measurements/."""
+    if not any(settings.ontology_dir.glob("*.ttl")):
+        # a store seeded from nothing answers "unknown condition dimension … known: (none)" forever after
+        raise DataMissing(
+            f"no ontology to seed from: {settings.ontology_dir} holds no *.ttl; set NFEX_HOME to a folder "
+            "holding ontology/ and rules/ (an installed nFEX ships its own)"
+        )
     return turtle_files(settings.ontology_dir)
 
 

@@ -28,7 +28,7 @@ from rdflib.namespace import DCTERMS, PROV, RDF, XSD
 from rdflib.term import Literal, URIRef
 
 from ..config import Settings
-from ..errors import BadInput, Conflict, NotFound, PreconditionFailed, ValidationFailed
+from ..errors import BadInput, Conflict, NotFound, PreconditionFailed, StoreUnavailable, ValidationFailed
 from ..namespaces import NFEX, PREFIXES
 from .backends import Backend, SelectResult, open_backend
 from .changes import ChangeSet, graph_triples
@@ -61,6 +61,14 @@ def added_graph(n: int) -> URIRef:
 
 def removed_graph(n: int) -> URIRef:
     return URIRef(f"urn:nfex:version:{n}:removed")
+
+
+STAGE_CHUNK = 1000  # triples per staging request (Virtuoso 7's parser gives up near 5,000)
+
+
+def staging_graph(commit_id: str, kind: str) -> URIRef:
+    """Where a commit's ``added`` or ``removed`` triples wait until it is applied (``_write_version``)."""
+    return URIRef(f"urn:nfex:staging:{commit_id}:{kind}")
 
 
 @dataclass(frozen=True)
@@ -116,7 +124,7 @@ class KnowledgeGraph:
         """Open ``location`` (default: the settings' store) as it is; ``nfex_core.knowledge.open_graph``
         also seeds an empty store."""
         settings = settings or Settings.from_env()
-        return cls(open_backend(location or settings.store), settings)
+        return cls(open_backend(location or settings.store, settings), settings)
 
     def close(self) -> None:
         self.backend.close()
@@ -132,6 +140,14 @@ class KnowledgeGraph:
             f"INSERT {{ GRAPH {n3(META)} {{ {n3(HEAD)} {n3(NFEX.versionNumber)} 0 }} }} "
             f"WHERE {{ FILTER NOT EXISTS {{ GRAPH {n3(META)} {{ {n3(HEAD)} {n3(NFEX.versionNumber)} ?v }} }} }}"
         )
+        # the head lives in a named graph: seen in the default graph, the server shows the union of its graphs
+        if self.backend.ask(f"ASK {{ {n3(HEAD)} {n3(NFEX.versionNumber)} ?v }}"):
+            raise StoreUnavailable(
+                f"the SPARQL server at {self.location} answers queries on its default graph from all its named "
+                "graphs (GraphDB and Virtuoso do by default), where nFEX keeps its version history: the knowledge "
+                "would be read with every past change set mixed in. Keep it in a named graph of its own: set "
+                "NFEX_STORE_GRAPH, e.g. to https://w3id.org/nfex/graph/knowledge"
+            )
 
     # ------------------------------------------------------------------ reading
     @property
@@ -300,15 +316,37 @@ class KnowledgeGraph:
         if rivals or self.version != head:
             self.backend.update(f"DELETE WHERE {{ GRAPH {n3(META)} {{ {n3(claim)} ?p ?o }} }}")
             return False
-        self.backend.update(self._commit_update(change, head, new, author, message, commit_id))
+        self._write_version(change, head, new, author, message, commit_id)
         return self.ask(f"ASK {{ GRAPH {n3(META)} {{ {n3(version_iri(new))} nfex:commitId {n3(Literal(commit_id))} }} }}")
 
-    def _commit_update(
-        self, change: ChangeSet, head: int, new: int, author: str, message: str, commit_id: str
-    ) -> str:
-        """One SPARQL Update that writes the change, its change set, the version node and the new head.
+    def _write_version(self, change: ChangeSet, head: int, new: int, author: str, message: str, commit_id: str) -> None:
+        """Write ``change`` as version ``new`` if ``head`` is still the head: one operation, one transaction.
 
-        Guarded by the head still being ``head``; it also drops the claims on versions up to ``new``.
+        A change the backend takes in one request (``max_inline_triples``; any size in the embedded store)
+        is written inline. SPARQL servers take an update of any size only in principle: Virtuoso 7 refuses an
+        INSERT DATA of ~5,000 triples (its parser runs out of memory) and a DELETE/INSERT template of ~1,000
+        (its SQL compiler stops at 10,000 lines), and it keeps the earlier operations of a request whose later
+        one fails. So a larger change is staged first, STAGE_CHUNK triples a request, in graphs of this commit
+        that no query of the knowledge reads, and one operation of fixed size moves it in. A writer killed
+        while staging leaves its staging graphs behind, unread.
+        """
+        limit = self.backend.max_inline_triples
+        staged = limit is not None and len(change.added) + len(change.removed) > limit
+        if staged:
+            for kind, triples in (("added", change.added), ("removed", change.removed)):
+                items = [triple_n3(t) for t in triples]
+                for i in range(0, len(items), STAGE_CHUNK):
+                    body = "\n".join(items[i : i + STAGE_CHUNK])
+                    self.backend.update(f"INSERT DATA {{ GRAPH {n3(staging_graph(commit_id, kind))} {{\n{body}\n}} }}")
+        self.backend.update(self._commit_update(change, head, new, author, message, commit_id, staged=staged))
+
+    def _commit_update(
+        self, change: ChangeSet, head: int, new: int, author: str, message: str, commit_id: str, *, staged: bool = False
+    ) -> str:
+        """The update writing version ``new``: one DELETE/INSERT … WHERE operation (one transaction on any
+        server) writes the change, its change-set graphs, the version node and the new head, guarded by the
+        head still being ``head``; further operations drop the claims on versions up to ``new`` (and the
+        staging graphs). ``staged``: the triples are read from the staging graphs rather than written out.
         """
         now = Literal(datetime.now(UTC).isoformat(timespec="milliseconds"), datatype=XSD.dateTime)
         v = version_iri(new)
@@ -323,29 +361,28 @@ class KnowledgeGraph:
             (v, NFEX.commitId, Literal(commit_id)),
             (HEAD, NFEX.versionNumber, Literal(new)),
         ]
-        lines = [_prefix_block(), "DELETE {"]
-        lines += [triple_n3(t) for t in change.removed]
-        lines.append(f"GRAPH {n3(META)} {{ {n3(HEAD)} nfex:versionNumber {head} }}")
-        lines.append("} INSERT {")
-        lines += [triple_n3(t) for t in change.added]
-        lines.append(f"GRAPH {n3(META)} {{")
-        lines += [triple_n3(t) for t in meta]
-        lines.append("}")
-        if change.added:
-            lines.append(f"GRAPH {n3(added_graph(new))} {{")
-            lines += [triple_n3(t) for t in change.added]
-            lines.append("}")
-        if change.removed:
-            lines.append(f"GRAPH {n3(removed_graph(new))} {{")
-            lines += [triple_n3(t) for t in change.removed]
-            lines.append("}")
-        lines.append(f"}} WHERE {{ GRAPH {n3(META)} {{ {n3(HEAD)} nfex:versionNumber {head} }} }}")
-        # claims for this and earlier versions are settled now (losers' and dead writers' included)
-        lines.append(
-            f";\nDELETE {{ GRAPH {n3(META)} {{ ?c ?p ?o }} }} WHERE {{ GRAPH {n3(META)} {{ ?c nfex:claimsVersion ?n ; ?p ?o . "
-            f"FILTER (?n <= {new}) }} }}"
-        )
-        return "\n".join(lines)
+        guard = f"GRAPH {n3(META)} {{ {n3(HEAD)} nfex:versionNumber {head} }}"
+        meta_block = "\n".join(triple_n3(t) for t in meta)
+        tail = [f"DELETE {{ GRAPH {n3(META)} {{ ?c ?p ?o }} }} WHERE {{ GRAPH {n3(META)} {{ ?c nfex:claimsVersion ?n ; ?p ?o . FILTER (?n <= {new}) }} }}"]
+        if staged:
+            staged_added, staged_removed = staging_graph(commit_id, "added"), staging_graph(commit_id, "removed")
+            removed, added = "?rs ?rp ?ro .", "?as ?ap ?ao ."
+            # each row binds an added triple, a removed one or neither (the last branch: the version is written
+            # however the change is made up); a template triple with an unbound variable is skipped (§3.1.3)
+            where = (f"{guard}\n{{ GRAPH {n3(staged_added)} {{ ?as ?ap ?ao }} }} UNION "
+                     f"{{ GRAPH {n3(staged_removed)} {{ ?rs ?rp ?ro }} }} UNION {{ BIND (1 AS ?one) }}")
+            tail = [f"DELETE WHERE {{ GRAPH {n3(g)} {{ ?s ?p ?o }} }}" for g in (staged_added, staged_removed)] + tail
+        else:
+            removed = "\n".join(triple_n3(t) for t in change.removed)
+            added = "\n".join(triple_n3(t) for t in change.added)
+            where = guard
+        change_sets = [f"GRAPH {n3(graph)} {{\n{body}\n}}" for graph, body in ((added_graph(new), added), (removed_graph(new), removed))
+                       if body.strip()]
+        return "\n".join([
+            f"{_prefix_block()}DELETE {{", self.backend.graph_block(removed), guard,
+            "} INSERT {", self.backend.graph_block(added), *change_sets, f"GRAPH {n3(META)} {{\n{meta_block}\n}}",
+            f"}} WHERE {{\n{where}\n}}",
+        ] + [f";\n{op}" for op in tail])
 
     def add(self, graph: rdflib.Graph, *, author: str, message: str = "", expected_version: int | None = None) -> CommitResult:
         return self.commit(ChangeSet.adding(graph_triples(graph)), author=author, message=message, expected_version=expected_version)

@@ -10,4 +10,4 @@ try:
 except ModuleNotFoundError:
     sys.path.insert(0, str(ROOT / "clients" / "python"))
 
-from tests.service.conftest import oxigraph_url, remote_service, service  # noqa: E402,F401
+from tests.service.conftest import remote_service, service, sparql_store  # noqa: E402,F401

@@ -14,7 +14,14 @@ from pathlib import Path
 import httpx
 import pytest
 
-from tests.conftest import free_port, stop_process, wait_http
+from tests.conftest import (
+    SPARQL_SERVERS,
+    SparqlServer,
+    free_port,
+    start_sparql_server,
+    stop_process,
+    wait_http,
+)
 
 EDITOR = "editor-secret-1"
 READER = "reader-secret-2"
@@ -74,36 +81,37 @@ def service(seeded_template: Path, tmp_path_factory: pytest.TempPathFactory) -> 
     stop_process(svc.proc)
 
 
-@pytest.fixture(scope="session")
-def oxigraph_url(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
-    exe = shutil.which("oxigraph") or str(Path(sys.executable).parent / "oxigraph")
-    if not Path(exe).exists():
-        pytest.skip("the oxigraph server binary is not installed (pip install oxigraph)")
-    folder = tmp_path_factory.mktemp("oxigraph")
-    port = free_port()
-    # as docker-compose.yml runs it: the server cancels queries past --timeout-s itself
-    proc = subprocess.Popen([exe, "serve", "--location", str(folder / "data"), "--bind", f"127.0.0.1:{port}", "--timeout-s", "10"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    url = f"http://127.0.0.1:{port}"
-    wait_http(url + "/query?query=ASK%7B%7D", proc=proc)
-    yield url
+@pytest.fixture(scope="session", params=sorted(SPARQL_SERVERS))
+def sparql_store(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> Iterator[SparqlServer]:
+    """A real SPARQL server for the remote-store mode, one per kind for the session: ``oxigraph serve`` (as
+    docker-compose.yml runs it: the server cancels queries past --timeout-s itself) and Virtuoso."""
+    proc, server = start_sparql_server(request.param, tmp_path_factory.mktemp(request.param))
+    yield server
     stop_process(proc)
 
 
 @pytest.fixture(scope="session")
-def remote_service(oxigraph_url: str, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Service]:
-    """The service in remote-store mode: its graph lives in a real ``oxigraph serve`` process."""
+def oxigraph_url(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    """An ``oxigraph serve`` of its own, as docker-compose.yml runs it (tests of that one server)."""
+    proc, server = start_sparql_server("oxigraph", tmp_path_factory.mktemp("oxigraph"))
+    yield server.url
+    stop_process(proc)
+
+
+@pytest.fixture(scope="session")
+def remote_service(sparql_store: SparqlServer, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Service]:
+    """The service in remote-store mode: its graph lives in a real SPARQL server."""
     folder = tmp_path_factory.mktemp("remote-service")
-    svc = start_service(oxigraph_url, folder / "service.log")
+    svc = start_service(sparql_store.url, folder / "service.log", sparql_store.env)
     yield svc
     stop_process(svc.proc)
 
 
 @pytest.fixture(scope="session")
-def remote_replica(remote_service: Service, oxigraph_url: str, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Service]:
+def remote_replica(remote_service: Service, sparql_store: SparqlServer, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Service]:
     """A second replica on the same SPARQL server, as docker-compose.yml runs several."""
     folder = tmp_path_factory.mktemp("remote-replica")
-    svc = start_service(oxigraph_url, folder / "service.log")
+    svc = start_service(sparql_store.url, folder / "service.log", sparql_store.env)
     yield svc
     stop_process(svc.proc)
 

@@ -1,30 +1,34 @@
-"""Remote-store mode: the service keeps its graph in a real `oxigraph serve` (docker-compose's layout)."""
+"""Remote-store mode: the service keeps its graph in a real SPARQL server (docker-compose's layout):
+`oxigraph serve`, and Virtuoso (knowledge in a named graph, updates behind HTTP Digest); each test runs on both."""
 from __future__ import annotations
 
+import io
 from concurrent.futures import ThreadPoolExecutor
+from csv import reader
 
 import httpx
 import pytest
 
+from tests.conftest import SparqlServer
+
 from .conftest import Service, assert_problem, auth
 
 
-def test_select_feedback_sparql_and_update_over_a_sparql_server(remote_service: Service, oxigraph_url: str) -> None:
+def test_select_feedback_sparql_and_update_over_a_sparql_server(remote_service: Service, sparql_store: SparqlServer) -> None:
     svc = remote_service
-    assert httpx.get(svc.url + "/readyz").json()["store"].startswith(oxigraph_url)
+    assert httpx.get(svc.url + "/readyz").json()["store"] == sparql_store.backend().location
     sel = httpx.post(svc.url + "/v1/select", json={"context": {"agent": "car", "motion": "fast"}}).json()
     assert "SIFT" in {p["extractor"] for p in sel["pruned"]}
     head = svc.version()
     r = httpx.post(svc.url + "/v1/feedback", json={"extractor": "SIFT", "context": {"scene": "indoor"}, "ate_rmse": 0.5,
                                                     "sequence": "remote/test", "client": "pytest"})
     assert r.status_code == 201 and r.json()["version"] == head + 1
-    # the measurement is in the SPARQL server itself
-    direct = httpx.post(oxigraph_url + "/query", content=f"ASK {{ <{r.json()['iri']}> a <https://w3id.org/nfex#Measurement> }}",
-                        headers={"content-type": "application/sparql-query", "accept": "application/sparql-results+json"})
-    assert direct.json()["boolean"] is True
+    # the measurement is in the SPARQL server itself (in the knowledge graph, where the server keeps it in a named one)
+    assert sparql_store.backend().ask(f"ASK {{ <{r.json()['iri']}> a <https://w3id.org/nfex#Measurement> }}")
     csv = httpx.get(svc.url + "/sparql", params={"query": "SELECT ?x WHERE { ?x a nfex:FeatureExtractor } ORDER BY ?x"},
                     headers={"accept": "text/csv"})
-    assert csv.headers["content-type"].startswith("text/csv") and csv.text.split()[1:] == [
+    # the server's own CSV passes through (Virtuoso quotes every field, Oxigraph only where needed)
+    assert csv.headers["content-type"].startswith("text/csv") and [row[0] for row in reader(io.StringIO(csv.text))][1:] == [
         "https://w3id.org/nfex#AKAZE", "https://w3id.org/nfex#BRISK", "https://w3id.org/nfex#ORB", "https://w3id.org/nfex#ORB_GRID",
         "https://w3id.org/nfex#SIFT"]
     before = svc.version()
@@ -64,7 +68,9 @@ def test_replicas_share_the_graph_and_never_lose_a_write(remote_service: Service
 
     deadline = time.monotonic() + 10
     while True:
-        sel = httpx.post(remote_replica.url + "/v1/select", json={"context": {"agent": "drone", "texture": "low"}}).json()
+        # generous: the first selection at a new version reloads the vocabulary from the server, which under
+        # load (Virtuoso and both replicas compiling) can take longer than httpx's default 5 s
+        sel = httpx.post(remote_replica.url + "/v1/select", json={"context": {"agent": "drone", "texture": "low"}}, timeout=30).json()
         if "ORB" in {p["extractor"] for p in sel["pruned"]}:
             break
         assert time.monotonic() < deadline, "the replica never saw the rule"

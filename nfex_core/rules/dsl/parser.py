@@ -17,10 +17,11 @@ from typing import Any
 import lark
 from lark import Lark, Token, Transformer, v_args
 
-from ...config import REPO_ROOT
+from ...config import default_home
 from ...errors import ParseError
 
-GRAMMAR = REPO_ROOT / "rules" / "nfex.lark"
+# the language's own grammar, from the installed package (not NFEX_HOME, whose rules/ need not carry it)
+GRAMMAR = default_home() / "rules" / "nfex.lark"
 COMPARATORS = ("<=", "<", ">=", ">", "=")
 
 

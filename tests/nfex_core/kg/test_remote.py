@@ -1,4 +1,5 @@
-"""The same transactions against a real `oxigraph serve` process, shared by several clients."""
+"""The same transactions against real SPARQL servers shared by several clients: `oxigraph serve`, and Virtuoso
+(its default graph the union of all graphs, updates behind HTTP Digest): each test runs on both."""
 from __future__ import annotations
 
 import threading
@@ -9,17 +10,17 @@ from rdflib.namespace import RDFS
 
 from nfex_core.errors import Conflict, ParseError, StoreUnavailable, ValidationFailed
 from nfex_core.kg import ChangeSet, KnowledgeGraph, parse_rdf
-from nfex_core.knowledge import open_graph
 from nfex_core.kg.backends import RemoteBackend
 from nfex_core.namespaces import NFEX
+from tests.conftest import SparqlServer
 
 CONFIG = """@prefix nfex: <https://w3id.org/nfex#> .
 nfex:cfg1 a nfex:Configuration ; nfex:ofExtractor nfex:ORB ; nfex:hasSetting nfex:cfg1_nf .
 nfex:cfg1_nf a nfex:ParameterSetting ; nfex:parameter nfex:ORB_nfeatures ; nfex:value 1000 ."""
 
 
-def test_seed_query_commit_rollback_over_http(oxigraph_server: str) -> None:
-    kg = open_graph(oxigraph_server)
+def test_seed_query_commit_rollback_over_http(sparql_server: SparqlServer) -> None:
+    kg = sparql_server.open()
     assert kg.version == 1
     params = kg.select("SELECT ?p WHERE { ?p a nfex:Parameter }")
     assert len(params) == 37  # ORB 9, ORB_GRID 11, SIFT 6, AKAZE 8, BRISK 3
@@ -34,17 +35,17 @@ def test_seed_query_commit_rollback_over_http(oxigraph_server: str) -> None:
         kg.select("SELECT nonsense")
 
 
-def test_a_second_node_sees_the_same_graph(oxigraph_server: str) -> None:
-    a = open_graph(oxigraph_server)
-    b = open_graph(oxigraph_server)
+def test_a_second_node_sees_the_same_graph(sparql_server: SparqlServer) -> None:
+    a = sparql_server.open()
+    b = sparql_server.open()
     a.add(parse_rdf(CONFIG), author="a")
     assert b.version == 2
     assert b.ask("ASK { nfex:cfg1 nfex:ofExtractor nfex:ORB }")
 
 
-def test_concurrent_writers_never_lose_a_change(oxigraph_server: str) -> None:
+def test_concurrent_writers_never_lose_a_change(sparql_server: SparqlServer) -> None:
     """Two nodes commit at once; compare-and-swap lets exactly one win each round, the other retries."""
-    nodes = [open_graph(oxigraph_server) for _ in range(4)]
+    nodes = [sparql_server.open() for _ in range(4)]
     per_node = 5
     errors: list[Exception] = []
 
@@ -87,10 +88,10 @@ def test_endpoint_urls_follow_server_conventions() -> None:
     assert (fuseki.query_url, fuseki.update_url) == ("http://h:3030/ds/query", "http://h:3030/ds/update")
 
 
-def test_writes_valid_alone_but_not_together_cannot_both_land(oxigraph_server: str) -> None:
+def test_writes_valid_alone_but_not_together_cannot_both_land(sparql_server: SparqlServer) -> None:
     """Write skew: two nodes each add an ORB parameter named "extra" — each valid alone. Commits are
     serialised and each is validated against the head it lands on, so exactly one lands."""
-    nodes = [open_graph(oxigraph_server) for _ in range(2)]
+    nodes = [sparql_server.open() for _ in range(2)]
     outcomes: list[str] = []
     barrier = threading.Barrier(2)
 

@@ -1,0 +1,58 @@
+"""A regular install: the wheel built from this checkout, installed into a fresh virtualenv, answers a
+selection from the full graph (ontology, rules, the shipped measurements and model) without the checkout."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import sysconfig
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def _run(args: list[str], **kw: object) -> subprocess.CompletedProcess[str]:
+    p = subprocess.run(args, capture_output=True, text=True, timeout=300, **kw)  # type: ignore[call-overload]
+    assert p.returncode == 0, f"{args[:3]} exited {p.returncode}:\n{p.stdout[-2000:]}\n{p.stderr[-3000:]}"
+    return p  # type: ignore[no-any-return]
+
+
+@pytest.mark.slow
+def test_an_installed_wheel_answers_from_the_full_graph(tmp_path: Path) -> None:
+    work = tmp_path / "elsewhere"  # not the checkout: it must not be on sys.path (nor a stray nfex.egg-info in it)
+    work.mkdir()
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NFEX_") and k not in ("PYTHONPATH", "PYTHONHOME")}
+    env["NFEX_STORE"] = str(tmp_path / "store")
+    dist = tmp_path / "dist"
+    # no build isolation: the build backend (hatchling, in the dev extra) comes from this environment
+    _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q", "-w", str(dist), str(REPO)],
+         cwd=work, env=env)
+    wheel = next(dist.glob("nfex-*.whl"))
+
+    venv = tmp_path / "venv"
+    _run([sys.executable, "-m", "venv", "--without-pip", str(venv)])
+    python = venv / "bin" / "python"
+    # installed before the dependencies below are on its path: pip must not see this environment's nfex
+    _run([sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps", "--no-index", "--force-reinstall",
+          "-q", str(wheel)], cwd=work, env=env)
+    site = Path(_run([str(python), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"]).stdout.strip())
+    assert (site / "nfex_core" / "_home" / "ontology" / "nfex.ttl").is_file()
+    # nfex itself only from the wheel; its third-party dependencies from this environment, to keep the test fast
+    # (a plain path line: the .pth files there, e.g. an editable nfex, are not processed)
+    (site / "zz-deps.pth").write_text(sysconfig.get_path("purelib") + "\n")
+
+    where = _run([str(python), "-c", "import nfex_core, nfex_core.config as c; print(nfex_core.__file__); print(c.Settings.from_env().home)"],
+                 cwd=work, env=env).stdout.split()
+    assert Path(where[0]).is_relative_to(venv) and Path(where[1]).is_relative_to(venv), where
+
+    p = _run([str(venv / "bin" / "nfex"), "select", "--context", "agent=car", "--json"], cwd=work, env=env)
+    sel = json.loads(p.stdout)
+    assert sel["versions"]["graph"] == 1 and sel["versions"]["rules"] >= 4 and sel["versions"]["programs"]
+    assert sel["versions"]["model"]["name"] == "default"  # models/ came with the wheel
+    # the shipped KITTI 00 sweep's measurements are in the graph and decide Θ′
+    assert any((c.get("evidence") or {}).get("windows") for c in sel["candidates"])
+    reasons = [b["kind"] for c in sel["candidates"] for a in c["adjustments"] for b in a["because"]]
+    assert "measured" in reasons
