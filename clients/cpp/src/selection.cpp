@@ -94,8 +94,9 @@ Selection Selection::from_json(const json& doc) {
         s.warnings = doc.value("warnings", std::vector<std::string>{});
         const json& v = doc.at("versions");
         s.versions = {v.value("graph", 0LL), v.value("programs", json::object()), v.value("rules", 0), v.value("model", json())};
-        for (const auto& [k, t] : doc.value("timings_ms", json::object()).items())
-            if (t.is_number()) s.timings_ms[k] = t.get<double>();
+        if (auto t = doc.find("timings_ms"); t != doc.end() && t->is_object())
+            for (const auto& [k, ms] : t->items())
+                if (ms.is_number()) s.timings_ms[k] = ms.get<double>();
         if (auto p = doc.find("session"); p != doc.end() && p->is_object())
             s.session = StreamPosition{p->at("id").get<std::string>(), p->value("frame", 0), p->value("temporal", false)};
         s.raw = doc;
