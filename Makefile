@@ -1,13 +1,18 @@
 # Two entry points, both self-contained on a fresh machine with Python 3.11:
 #   make serve   install nFEX and run the service on the embedded store (seeded from ontology/ and rules/)
 #   make test    install nFEX with its test extras and run the whole suite
+#   make cpp     the C++ client (clients/cpp) into CPP_BUILD; apt-installs what it needs first when missing
 PYTHON ?= python3
 VENV   ?= .venv
 BIN    := $(VENV)/bin
 HOST   ?= 127.0.0.1
 PORT   ?= 8000
+CPP_BUILD ?= clients/cpp/build
+# Debian packages the C++ client builds with; only the missing ones are installed (root, or sudo)
+CPP_DEBS  := cmake g++ make pkg-config libcurl4-openssl-dev nlohmann-json3-dev libopencv-dev
+SUDO      := $(if $(filter 0,$(shell id -u)),,sudo)
 
-.PHONY: install install-dev serve test bench lint typecheck clean
+.PHONY: install install-dev serve test cpp bench lint typecheck clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -25,6 +30,16 @@ serve: install
 test: install-dev
 	$(BIN)/python -m pytest -n 2 $(PYTEST_ARGS)
 
+cpp:
+	@missing=$$(for p in $(CPP_DEBS); do dpkg-query -W -f='$${db:Status-Status}' $$p 2>/dev/null | grep -qx installed || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	  if ! command -v apt-get >/dev/null; then echo "make cpp: install these first: "$$missing; exit 1; fi; \
+	  echo "make cpp: apt-get install" $$missing; \
+	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
+	fi
+	cmake -S clients/cpp -B $(CPP_BUILD) -DCMAKE_BUILD_TYPE=Release
+	cmake --build $(CPP_BUILD) -j $$(nproc 2>/dev/null || echo 2)
+
 bench: install-dev
 	for f in bench/bench_*.py; do echo "== $$f"; $(BIN)/python $$f || exit 1; done
 
@@ -33,4 +48,4 @@ lint: install-dev
 	$(BIN)/mypy
 
 clean:
-	rm -rf $(VENV) build *.egg-info
+	rm -rf $(VENV) build *.egg-info $(CPP_BUILD)
