@@ -2,13 +2,18 @@
 #   make serve   install nFEX and run the service on the embedded store (seeded from ontology/ and rules/)
 #   make test    install nFEX with its test extras (and, as root, Virtuoso) and run the whole suite
 #   make docs    HTML documentation of the ontology (pyLODE) in out/docs/ontology/
+#   make cpp     the C++ client (clients/cpp) into CPP_BUILD; apt-installs what it needs first when missing
 PYTHON ?= python3
 VENV   ?= .venv
 BIN    := $(VENV)/bin
 HOST   ?= 127.0.0.1
 PORT   ?= 8000
+CPP_BUILD ?= clients/cpp/build
+# Debian packages the C++ client builds with; only the missing ones are installed (root, or sudo)
+CPP_DEBS  := cmake g++ make pkg-config libcurl4-openssl-dev nlohmann-json3-dev libopencv-dev
+SUDO      := $(if $(filter 0,$(shell id -u)),,sudo)
 
-.PHONY: install install-dev sparql-servers serve test docs bench lint typecheck clean
+.PHONY: install install-dev sparql-servers serve test docs cpp bench lint typecheck clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -38,6 +43,16 @@ docs: $(BIN)/python
 	$(BIN)/pip install --quiet -e '.[docs]'
 	$(BIN)/python -m nfex_core.kg.docs out/docs/ontology
 
+cpp:
+	@missing=$$(for p in $(CPP_DEBS); do dpkg-query -W -f='$${db:Status-Status}' $$p 2>/dev/null | grep -qx installed || echo $$p; done); \
+	if [ -n "$$missing" ]; then \
+	  if ! command -v apt-get >/dev/null; then echo "make cpp: install these first: "$$missing; exit 1; fi; \
+	  echo "make cpp: apt-get install" $$missing; \
+	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq --no-install-recommends $$missing; \
+	fi
+	cmake -S clients/cpp -B $(CPP_BUILD) -DCMAKE_BUILD_TYPE=Release
+	cmake --build $(CPP_BUILD) -j $$(nproc 2>/dev/null || echo 2)
+
 bench: install-dev
 	for f in bench/bench_*.py; do echo "== $$f"; $(BIN)/python $$f || exit 1; done
 
@@ -46,4 +61,4 @@ lint: install-dev
 	$(BIN)/mypy
 
 clean:
-	rm -rf $(VENV) build *.egg-info
+	rm -rf $(VENV) build *.egg-info $(CPP_BUILD)

@@ -114,17 +114,24 @@ class Selection:
     weights: dict[str, Factor]
     versions: dict[str, Any]
     timings_ms: dict[str, float]
-    constructor: str = ""
-    norm: str = ""
+    opencv: dict[str, Any] = field(default_factory=dict)  # ExtractorSpec.opencv: constructor, norm, args, grid
     state: Any = field(default=None, compare=False, repr=False)  # for the next frame of a stream
     budget: dict[str, Any] | None = None  # the per-frame budget in force (ms, source, compute, frame size)
     warnings: tuple[str, ...] = ()
+
+    @property
+    def constructor(self) -> str:
+        return str(self.opencv.get("constructor", ""))
+
+    @property
+    def norm(self) -> str:
+        return str(self.opencv.get("norm", ""))
 
     def as_dict(self) -> dict[str, Any]:
         return {
             "extractor": self.extractor,
             "params": self.params,
-            "opencv": {"constructor": self.constructor, "norm": self.norm},
+            "opencv": self.opencv,
             "mode": self.mode,
             "candidates": [c.as_dict() for c in self.candidates],
             "pruned": [p.as_dict() for p in self.pruned],

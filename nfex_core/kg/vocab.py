@@ -143,6 +143,44 @@ class ExtractorSpec:
                 return rule.norm
         return self.norm
 
+    def nf_parameter(self) -> str | None:
+        """The number-of-features parameter (role NF), if the extractor has one."""
+        return next((n for n, p in self.parameters.items() if p.role == "NF" and p.grid_role is None), None)
+
+    def grid(self, full: Mapping[str, Value]) -> tuple[int, float] | None:
+        """(cell size in px, oversampling factor) when the extractor declares a grid cell size
+        (``nfex:gridRole``, ontology/grid.ttl), else None."""
+        roles = {p.grid_role: n for n, p in self.parameters.items() if p.grid_role is not None}
+        if "cellSize" not in roles:
+            return None
+        over = float(full[roles["oversample"]]) if "oversample" in roles else 1.0
+        return int(full[roles["cellSize"]]), over
+
+    def constructor_args(self, full: Mapping[str, Value]) -> dict[str, Value]:
+        """The OpenCV constructor's arguments for the full parameter set ``full``: grid settings left out,
+        and under a grid the NF parameter multiplied by the oversampling factor (clamped to its range)."""
+        args = {k: v for k, v in full.items() if self.parameters[k].grid_role is None}
+        grid = self.grid(full)
+        nf = self.nf_parameter()
+        if grid is not None and nf is not None and int(args[nf]) > 0:
+            args[nf] = self.parameters[nf].clamp(float(args[nf]) * grid[1])
+        return args
+
+    def opencv(self, params: Mapping[str, Any] | None = None) -> dict[str, Any]:
+        """How a client builds this extractor with ``params`` (a Selection's ``opencv``): the constructor
+        (a path under cv2), the matching norm, the constructor's ``args``, and ``grid`` — None, or the cell
+        size and how many keypoints to keep (0: all) when the detected keypoints are to be spread over a
+        grid before descriptors are computed (the registry's ``spread_over_grid``)."""
+        full = self.resolve(params)
+        grid = self.grid(full)
+        nf = self.nf_parameter()
+        return {
+            "constructor": self.constructor,
+            "norm": self.norm_for(full),
+            "args": self.constructor_args(full),
+            "grid": None if grid is None else {"cell_size": grid[0], "keep": int(full[nf]) if nf is not None else 0},
+        }
+
 
 @dataclass(frozen=True)
 class ConditionValueSpec:

@@ -91,7 +91,7 @@ class ExtractorRegistry:
     def constructor_args(self, name: str, params: Mapping[str, Any] | None = None) -> dict[str, Value]:
         """The validated parameters the OpenCV constructor takes: grid settings and oversampling applied."""
         spec = self.spec(name)
-        return _constructor_args(spec, spec.resolve(params))
+        return spec.constructor_args(spec.resolve(params))
 
     def create(self, name: str, params: Mapping[str, Any] | None = None) -> Any:
         """A (thread-local, cached) OpenCV detector for ``name`` with ``params``."""
@@ -123,16 +123,16 @@ class ExtractorRegistry:
         """Detect keypoints and compute descriptors on ``image`` (grey or colour)."""
         spec = self.spec(name)
         full = spec.resolve(params)  # once per frame: the detector, its norm and the grid all read it
-        detector = self._detector(spec, _constructor_args(spec, full))
+        detector = self._detector(spec, spec.constructor_args(full))
         norm_name = spec.norm_for(full)
         norm = int(getattr(cv2, norm_name))
         grey = as_grey_u8(image)
-        grid = _grid_settings(spec, full)
+        grid = spec.grid(full)
         t0 = time.perf_counter()
         if grid is None:
             keypoints, descriptors = detector.detectAndCompute(grey, mask)
         else:
-            nf = _nf_name(spec)
+            nf = spec.nf_parameter()
             keep = int(full[nf]) if nf is not None else 0
             keypoints = spread_over_grid(detector.detect(grey, mask), grid[0], keep)
             keypoints, descriptors = detector.compute(grey, keypoints)
@@ -152,31 +152,6 @@ class ExtractorRegistry:
             image_shape=(int(grey.shape[0]), int(grey.shape[1])),
             elapsed_ms=elapsed,
         )
-
-
-def _constructor_args(spec: ExtractorSpec, full: Mapping[str, Value]) -> dict[str, Value]:
-    args = {k: v for k, v in full.items() if spec.parameters[k].grid_role is None}
-    grid = _grid_settings(spec, full)
-    if grid is not None:
-        nf = _nf_name(spec)
-        if nf is not None and int(args[nf]) > 0:
-            p = spec.parameters[nf]
-            args[nf] = p.clamp(float(args[nf]) * grid[1])
-    return args
-
-
-def _nf_name(spec: ExtractorSpec) -> str | None:
-    """The extractor's number-of-features parameter (role NF), if it has one."""
-    return next((n for n, p in spec.parameters.items() if p.role == "NF" and p.grid_role is None), None)
-
-
-def _grid_settings(spec: ExtractorSpec, full: Mapping[str, Value]) -> tuple[int, float] | None:
-    """(cell size in px, oversampling factor) when the extractor declares a grid cell size, else None."""
-    roles = {p.grid_role: n for n, p in spec.parameters.items() if p.grid_role is not None}
-    if "cellSize" not in roles:
-        return None
-    over = float(full[roles["oversample"]]) if "oversample" in roles else 1.0
-    return int(full[roles["cellSize"]]), over
 
 
 def spread_over_grid(keypoints: Any, cell: int, keep: int) -> list[Any]:

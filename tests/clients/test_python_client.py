@@ -110,3 +110,23 @@ def test_the_client_is_an_installable_package(tmp_path: Path) -> None:
 
     names = zipfile.ZipFile(wheel).namelist()
     assert "nfex_client/py.typed" in names and "nfex_client/client.py" in names
+
+
+def test_a_grid_selection_builds_a_grid_spread_that_orders_as_the_registry(data_dir: Path) -> None:
+    from nfex_client import GridSpread, spread_keypoints
+
+    from nfex_core.vision.registry import spread_over_grid
+
+    frame = cv2.imread(str(data_dir / "kitti" / "sequences" / "01" / "image_0" / "000000.png"), cv2.IMREAD_GRAYSCALE)
+    sel = {"params": {}, "opencv": {"constructor": "ORB_create", "norm": "NORM_HAMMING",
+                                    "args": {"nfeatures": 1500, "fastThreshold": 12}, "grid": {"cell_size": 48, "keep": 500}}}
+    extractor = extractor_from_selection(sel)
+    assert isinstance(extractor, GridSpread)
+    keypoints, descriptors = extractor.detectAndCompute(frame, None)
+    assert 400 < len(keypoints) <= 500 and descriptors.shape[0] == len(keypoints)
+    detected = cv2.ORB_create(nfeatures=1500, fastThreshold=12).detect(frame, None)
+    rng = np.random.default_rng(5)
+    ties = [cv2.KeyPoint(float(x), float(y), 7.0, -1, float(r)) for x, y, r in
+            zip(rng.integers(0, 600, 300), rng.integers(0, 300, 300), rng.choice([0.25, 0.5], 300), strict=True)]
+    for kps, cell, keep in ((detected, 48, 500), (detected, 100, 0), (ties, 48, 120), ([], 48, 10)):
+        assert [id(k) for k in spread_keypoints(kps, cell, keep)] == [id(k) for k in spread_over_grid(kps, cell, keep)]

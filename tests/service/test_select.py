@@ -49,6 +49,7 @@ def test_context_alone(service: Service) -> None:
     assert given["light"]["source"] == "unknown"
     assert sel["versions"]["graph"] >= 1 and "total" in sel["timings_ms"]
     assert sel["opencv"]["constructor"].endswith("_create")
+    assert set(sel["opencv"]) == {"constructor", "norm", "args", "grid"} and sel["opencv"]["args"]  # how to build α (issue 19)
 
 
 @pytest.mark.parametrize("colour", [False, True])

@@ -25,10 +25,11 @@ from .errors import (
     Unprocessable,
     UnsupportedMediaType,
 )
-from .opencv import extractor_from_selection, matcher_from_selection
+from .opencv import GridSpread, extractor_from_selection, matcher_from_selection, spread_keypoints
 
 __all__ = [
     "AsyncNfexClient", "NfexClient", "Selection", "WriteResult", "extractor_from_selection", "matcher_from_selection",
+    "GridSpread", "spread_keypoints",
     "NfexClientError", "BadRequest", "Unauthorized", "Forbidden", "NotFound", "Conflict", "PreconditionFailed",
     "PayloadTooLarge", "UnsupportedMediaType", "Unprocessable", "TooManyRequests", "ServiceUnavailable",
 ]

@@ -158,3 +158,23 @@ def test_adding_an_extractor_is_data(kg: KnowledgeGraph, euroc_pair: list[np.nda
     with pytest.raises(ParameterError, match=r"KAZE.nOctaves = 9 is outside its range \[1, 8\]"):
         registry.extract("KAZE", image, {"nOctaves": 9})
     assert len(registry.extract("KAZE", np.zeros((64, 64), np.uint8))) == 0
+
+
+@pytest.mark.parametrize("name", EXTRACTORS)
+def test_the_opencv_recipe_a_selection_carries_builds_the_registrys_detector(
+    registry: ExtractorRegistry, vocab: Vocabulary, name: str
+) -> None:
+    """ExtractorSpec.opencv (a Selection's ``opencv``) gives a client everything to build α with Θ′ itself:
+    the constructor's arguments (grid settings out, NF oversampled) and the grid spread to apply."""
+    spec = vocab.extractor(name)
+    recipe = spec.opencv({})
+    assert recipe["args"] == registry.constructor_args(name) and recipe["norm"] == registry.norm(name)[1]
+    target = cv2
+    for part in recipe["constructor"].split("."):
+        target = getattr(target, part)
+    assert type(target(**recipe["args"])) is type(registry.create(name))
+    if name == "ORB_GRID":
+        assert recipe["grid"] == {"cell_size": 48, "keep": 500} and recipe["args"]["nfeatures"] == 1500
+        assert "gridCellSize" not in recipe["args"] and "gridOversample" not in recipe["args"]
+    else:
+        assert recipe["grid"] is None and recipe["args"] == spec.defaults()

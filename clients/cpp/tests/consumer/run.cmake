@@ -1,0 +1,12 @@
+# cmake -D BUILD=… -D PREFIX=… -D SOURCE=… -P run.cmake: install, configure the consumer, build and run it.
+function(run)
+  execute_process(COMMAND ${ARGN} RESULT_VARIABLE rc)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "failed (${rc}): ${ARGN}")
+  endif()
+endfunction()
+file(REMOVE_RECURSE ${PREFIX})
+run(${CMAKE_COMMAND} --install ${BUILD} --prefix ${PREFIX})
+run(${CMAKE_COMMAND} -S ${SOURCE} -B ${PREFIX}/consumer-build -D CMAKE_PREFIX_PATH=${PREFIX} -D CMAKE_BUILD_TYPE=Release)
+run(${CMAKE_COMMAND} --build ${PREFIX}/consumer-build)
+run(${PREFIX}/consumer-build/consumer)
