@@ -115,13 +115,16 @@ class ExtractorSpec:
     iri: URIRef
     name: str
     label: str
-    constructor: str
+    constructor: str  # the OpenCV factory ("" for a learned model)
     norm: str
     descriptor_kind: str  # "binary" | "real"
     parameters: Mapping[str, ParameterSpec]
     norm_rules: tuple[NormRuleSpec, ...] = ()
     operations: tuple[str, ...] = ()
     comment: str = ""
+    backend: str = "opencv"  # the nfex:backend's token: which code runs it (vision.backends)
+    matcher: str = "ratio"  # the nfex:matcher's token: "ratio" | "mutual-ratio"
+    descriptor_size: int | None = None  # declared for learned models; OpenCV's detectors report theirs
 
     def parameter(self, name: str) -> ParameterSpec:
         try:
@@ -274,9 +277,12 @@ class Vocabulary:
 
         extractors: dict[str, ExtractorSpec] = {}
         for r in kg.select(
-            """SELECT ?x ?name ?ctor ?norm ?kind ?label ?comment WHERE {
-                ?x a nfex:FeatureExtractor ; nfex:token ?name ; nfex:opencvConstructor ?ctor ; nfex:matchNorm ?norm .
+            """SELECT ?x ?name ?ctor ?norm ?kind ?label ?comment ?backend ?matcher ?dsize WHERE {
+                ?x a nfex:FeatureExtractor ; nfex:token ?name ; nfex:matchNorm ?norm .
+                OPTIONAL { ?x nfex:opencvConstructor ?ctor }
                 OPTIONAL { ?x nfex:descriptorKind ?kind } OPTIONAL { ?x rdfs:label ?label } OPTIONAL { ?x rdfs:comment ?comment }
+                OPTIONAL { ?x nfex:backend/nfex:token ?backend } OPTIONAL { ?x nfex:matcher/nfex:token ?matcher }
+                OPTIONAL { ?x nfex:descriptorSize ?dsize }
             } ORDER BY ?name"""
         ).rows:
             name = str(r["name"])
@@ -285,13 +291,16 @@ class Vocabulary:
                 iri=r["x"],  # type: ignore[arg-type]
                 name=name,
                 label=str(r.get("label", name)),
-                constructor=str(r["ctor"]),
+                constructor=str(r.get("ctor", "")),
                 norm=str(r["norm"]),
                 descriptor_kind=kind,
                 parameters=dict(sorted(params.get(name, {}).items())),
                 norm_rules=tuple(norm_rules.get(name, [])),
                 operations=tuple(sorted(ops.get(name, []))),
                 comment=str(r.get("comment", "")),
+                backend=str(r.get("backend", "opencv")),
+                matcher=str(r.get("matcher", "ratio")),
+                descriptor_size=int(py(r["dsize"])) if "dsize" in r else None,
             )
 
         values: dict[str, dict[str, ConditionValueSpec]] = {}
