@@ -15,7 +15,7 @@ def evaluate(
     path: Annotated[Path, typer.Argument(help="Dataset folder (e.g. $NFEX_DATA/kitti).")],
     format: Annotated[str, typer.Option("--format", help="kitti | euroc | tum | handheld")] = "kitti",
     sequence: Annotated[str | None, typer.Option("--sequence", help="Sequence id (KITTI: 01).")] = None,
-    methods: Annotated[list[str], typer.Option("--methods", "-m", help="orb-default, sift-default, orb-dyn, sift-dyn, nfex.")] = [],  # noqa: B006
+    methods: Annotated[list[str], typer.Option("--methods", "-m", help="orb-default, sift-default, orb-dyn, sift-dyn, nfex, orb_grid-default, xfeat-default, xfeat-dyn.")] = [],  # noqa: B006
     runs: Annotated[int, typer.Option(help="Runs per method and condition (Mean ATE over them).")] = 1,
     corruption: Annotated[list[str], typer.Option("--corruption", "-c", help="none and/or corruption names.")] = [],  # noqa: B006
     severity: Annotated[float, typer.Option(help="Corruption severity in [0, 1].")] = 0.7,
@@ -48,6 +48,13 @@ def evaluate(
     if seq.poses is None:
         raise BadInput(f"{path}: the sequence has no ground truth; ATE needs it")
     kg = open_kg()
+    if not methods:  # the default list leaves out what cannot run here (a learned extractor without its extra)
+        from ..vision.backends import unavailable
+
+        absent = unavailable(kg.vocabulary().extractors, kg.settings)
+        for m in [m for m in chosen if m.split("-")[0].upper() in absent]:
+            chosen.remove(m)
+            typer.echo(f"nfex: {m} left out: {absent[m.split('-')[0].upper()].detail}", err=True)
     try:
         ev = run_evaluation(seq, kg, methods=chosen, runs=runs, corruptions=list(split_values(corruption)) or ["none"],
                             severity=severity, budgets=budget_ms, frames=frames, progress=progress and not json_out)

@@ -2,7 +2,8 @@
 parameters, ORB and SIFT with "dynamically optimised" parameters, and nFEX.
 
 - ``orb-default`` / ``sift-default``: the graph's defaults (OpenCV's); ``orb_grid-default``: the
-  grid-spread ORB registry entry (issue 8) with its defaults.
+  grid-spread ORB registry entry (issue 8) with its defaults; ``xfeat-default`` / ``xfeat-dyn``: the
+  learned XFeat (issue 15) with its authors' defaults / the measured-best configuration as below.
 - ``orb-dyn`` / ``sift-dyn``: per window, the parameters that a sweep on *other* sequences measured
   best for that extractor under the window's known conditions — the configuration with the lowest
   mean ATE over Measurements that share a condition value with the window's context, excluding every
@@ -25,7 +26,7 @@ from ..vo import Choice, Chooser, FrameRecord, fixed
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
 
-METHODS = ("orb-default", "sift-default", "orb-dyn", "sift-dyn", "nfex", "orb_grid-default")
+METHODS = ("orb-default", "sift-default", "orb-dyn", "sift-dyn", "nfex", "orb_grid-default", "xfeat-default", "xfeat-dyn")
 
 
 def best_params(
@@ -93,9 +94,9 @@ def chooser_for(
     method: str, kg: KnowledgeGraph, context: Mapping[str, str], sequence_label: str, budget_ms: float | None = None
 ) -> tuple[Chooser, str]:
     """The chooser of ``method`` and a note saying which parameters it runs with."""
-    if method in ("orb-default", "sift-default", "orb_grid-default"):
-        return fixed(method.split("-")[0].upper()), "OpenCV defaults"
-    if method in ("orb-dyn", "sift-dyn"):
+    if method in ("orb-default", "sift-default", "orb_grid-default", "xfeat-default"):
+        return fixed(method.split("-")[0].upper()), "the graph's defaults (OpenCV's; the authors' for XFeat)"
+    if method in ("orb-dyn", "sift-dyn", "xfeat-dyn"):
         x = method.split("-")[0].upper()
         params, note = best_params(kg, x, context, sequence_label)
         return fixed(x, params), note + (" " + json.dumps(params, sort_keys=True) if params else "")

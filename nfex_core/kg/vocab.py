@@ -37,6 +37,7 @@ class ParameterSpec:
     tunable: bool = False
     scales_with_resolution: bool = False
     grid_role: str | None = None  # "cellSize" | "oversample": applied by the registry, not passed to OpenCV
+    scales_input: bool = False  # nfex:scalesInput: the frame is resized by this factor before extraction
     label: str = ""
     comment: str = ""
 
@@ -228,13 +229,13 @@ class Vocabulary:
         version = kg.version
         params: dict[str, dict[str, ParameterSpec]] = {}
         prow = kg.select(
-            """SELECT ?p ?x ?xname ?name ?dt ?role ?default ?min ?max ?tunable ?scales ?grid ?label ?comment WHERE {
+            """SELECT ?p ?x ?xname ?name ?dt ?role ?default ?min ?max ?tunable ?scales ?grid ?label ?comment ?input WHERE {
                 ?p a nfex:Parameter ; nfex:parameterOf ?x ; nfex:opencvName ?name ; nfex:datatype ?dt ;
                    nfex:role/nfex:token ?role ; nfex:defaultValue ?default .
                 ?x nfex:token ?xname .
                 OPTIONAL { ?p nfex:minValue ?min } OPTIONAL { ?p nfex:maxValue ?max }
                 OPTIONAL { ?p nfex:tunable ?tunable } OPTIONAL { ?p nfex:scalesWithResolution ?scales }
-                OPTIONAL { ?p nfex:gridRole/nfex:token ?grid }
+                OPTIONAL { ?p nfex:gridRole/nfex:token ?grid } OPTIONAL { ?p nfex:scalesInput ?input }
                 OPTIONAL { ?p rdfs:label ?label } OPTIONAL { ?p rdfs:comment ?comment }
             }"""
         ).rows
@@ -256,6 +257,7 @@ class Vocabulary:
                 tunable=bool(py(r["tunable"])) if "tunable" in r else False,
                 scales_with_resolution=bool(py(r["scales"])) if "scales" in r else False,
                 grid_role=str(r["grid"]) if "grid" in r else None,
+                scales_input=bool(py(r["input"])) if "input" in r else False,
                 label=str(r.get("label", "")),
                 comment=str(r.get("comment", "")),
             )

@@ -48,7 +48,7 @@ class Citation:
     rule: str
     label: str
     reason: str
-    kind: str  # sparql | prune | adjust | weight | prefer | require | budget | shape
+    kind: str  # sparql | prune | adjust | weight | prefer | require | budget | shape | backend
     source: str | None = None
 
     def as_dict(self) -> dict[str, Any]:
@@ -271,10 +271,11 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
     errors += shape_errors
     measurements = _measurements(kg)
     evidence = _evidence(measurements)
+    absent = backend_citations(kg, vocab.extractors)
     decisions: dict[ContextKey, Decision] = {}
     for i, key in enumerate(keys):
         context = dict(zip(dims, key, strict=True))
-        pruned: dict[str, list[Citation]] = {}
+        pruned: dict[str, list[Citation]] = {x: [cite] for x, cite in absent.items()}
         for name, cite in pruned_by_rules.get(i, []):
             pruned.setdefault(name, []).append(cite)
         factors: dict[str, dict[str, Factor]] = {}
@@ -325,6 +326,18 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
     log.info("compiled %d contexts, %d rules, %d statements at graph version %d in %.0f ms", len(keys), len(rules), len(statements), version, ms)
     return RuleTable(version, dims, decisions, rules, statements, errors, ms, cost, budget_terms,
                      configurations, least)
+
+
+BACKEND_RULE = "https://w3id.org/nfex#rule_backend_available"
+
+
+def backend_citations(kg: KnowledgeGraph, extractors: Mapping[str, ExtractorSpec]) -> dict[str, Citation]:
+    """Extractors whose backend cannot run in this process (a learned model without its extra or weights),
+    each with the citation that prunes it in every context: the reason says what to install or set."""
+    from ..vision.backends import unavailable  # no heavy import: it checks installed packages and files
+
+    return {x: Citation(BACKEND_RULE, "Extractor backend installed", a.detail, "backend")
+            for x, a in unavailable(extractors, kg.settings).items()}
 
 
 class RuleEngine:

@@ -62,7 +62,7 @@ class Backend:
     learned: bool = False
 
     def extract_function(self) -> Callable[..., Any]:
-        return getattr(importlib.import_module(self.module), self.attr)  # type: ignore[no-any-return]
+        return getattr(importlib.import_module(self.module), self.attr)
 
     def availability(self, settings: Settings | None = None) -> Availability:
         return self.check(settings or Settings.from_env())

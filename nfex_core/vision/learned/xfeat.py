@@ -147,14 +147,15 @@ def extract(spec: ExtractorSpec, grey: np.ndarray, full: Mapping[str, Value], ma
     net = network()  # loaded (and exported) once per process, before the clock starts
     t0 = time.perf_counter()
     if int(grey.max()) == int(grey.min()):
-        xy, scores, desc = np.zeros((0, 2)), np.zeros(0, np.float32), np.zeros((0, DESCRIPTOR_SIZE), np.float32)
+        xy: np.ndarray = np.zeros((0, 2))
+        scores, desc = np.zeros(0, np.float32), np.zeros((0, DESCRIPTOR_SIZE), np.float32)
     else:
         image = grey.astype(np.float32) / 255.0
         if (th, tw) != (h, w):
             interp = cv2.INTER_LINEAR if float(full["input_scale"]) >= 1.0 else cv2.INTER_AREA
             image = cv2.resize(image, (tw, th), interpolation=interp)
         xy, scores, desc = sparse_features(*net.run(image), int(full["top_k"]), float(full["detection_threshold"]))
-        xy = xy * np.array([w / tw, h / th])
+        xy = np.multiply(xy, np.array([w / tw, h / th]), dtype=np.float64)
         if mask is not None and len(xy):
             inside = mask[np.clip(xy[:, 1].astype(int), 0, h - 1), np.clip(xy[:, 0].astype(int), 0, w - 1)] > 0
             xy, scores, desc = xy[inside], scores[inside], desc[inside]
