@@ -1,8 +1,11 @@
-"""Export XFeat's network to ONNX: ``python -m nfex_core.vision.learned.export WEIGHTS DEST``.
+"""Export XFeat's network to ONNX: ``python -m nfex_core.vision.learned.export [WEIGHTS DEST]``.
+
+Without arguments: the configured weights into the configured cache (``NFEX_XFEAT_WEIGHTS``,
+``NFEX_LEARNED_CACHE``), the ahead-of-time step (``make learned``).
 
 Run by ``model.export_onnx`` in a child process on first use (torch stays out of the serving process),
-or ahead of time. Opset 17, TorchScript-based exporter (``dynamo=False``: it needs neither onnxscript
-nor onnx), dynamic height and width; written to a temporary file in DEST's folder, then renamed.
+or ahead of time. Opset 17, TorchScript-based exporter (``dynamo=False``: it needs the ``onnx`` package, not
+onnxscript), dynamic height and width; written to a temporary file in DEST's folder, then renamed.
 """
 from __future__ import annotations
 
@@ -38,11 +41,21 @@ def export(weights: Path, dest: Path) -> Path:
 
 
 def main(argv: list[str]) -> int:
-    if len(argv) != 2:
-        print("usage: python -m nfex_core.vision.learned.export WEIGHTS DEST", file=sys.stderr)
+    if len(argv) not in (0, 2):
+        print("usage: python -m nfex_core.vision.learned.export [WEIGHTS DEST]", file=sys.stderr)
         return 2
+    if not argv:
+        from ...config import Settings
+        from .model import availability, onnx_path, weights_path
+
+        settings = Settings.from_env()
+        weights = weights_path(settings)
+        if weights is None or not weights.is_file():
+            print(f"nfex: {availability(settings).detail}", file=sys.stderr)
+            return 2
+        argv = [str(weights), str(onnx_path(settings, weights))]
     try:
-        export(Path(argv[0]), Path(argv[1]))
+        print(export(Path(argv[0]), Path(argv[1])))
     except Exception as e:  # one line for the parent's error message
         print(f"{type(e).__name__}: {e}", file=sys.stderr)
         return 3

@@ -31,7 +31,7 @@ import numpy as np
 from ...errors import ParameterError
 from ...kg.vocab import ExtractorSpec, Value
 from ..features import Features
-from .model import CELL, DESCRIPTOR_SIZE, STRIDE, network
+from .model import CELL, DESCRIPTOR_SIZE, STRIDE, XFeatNetwork, network
 
 NMS_WINDOW = 5
 BICUBIC_A = -0.75  # PyTorch's bicubic grid_sample (Keys' cubic convolution)
@@ -141,16 +141,23 @@ def sparse_features(
 
 def extract(spec: ExtractorSpec, grey: np.ndarray, full: Mapping[str, Value], mask: np.ndarray | None = None) -> Features:
     """XFeat on a grey uint8 frame with the validated parameters ``full`` (top_k, detection_threshold,
-    input_scale); ``mask`` (non-zero where features may lie) filters the keypoints as OpenCV's does."""
+    input_scale); ``mask`` (non-zero where features may lie) filters the keypoints as OpenCV's does.
+    The backend entry point (vision.backends): the process's network, loaded on first use."""
+    network_size(grey.shape[0], grey.shape[1], float(full["input_scale"]))  # a frame too small fails before any loading
+    return detect(network(), spec, grey, full, mask)
+
+
+def detect(net: XFeatNetwork, spec: ExtractorSpec, grey: np.ndarray, full: Mapping[str, Value],
+           mask: np.ndarray | None = None) -> Features:
+    """``extract`` with a given network (the benchmark compares runtimes with it); timed from here."""
     h, w = grey.shape
     th, tw = network_size(h, w, float(full["input_scale"]))
-    net = network()  # loaded (and exported) once per process, before the clock starts
     t0 = time.perf_counter()
     if int(grey.max()) == int(grey.min()):
         xy: np.ndarray = np.zeros((0, 2))
         scores, desc = np.zeros(0, np.float32), np.zeros((0, DESCRIPTOR_SIZE), np.float32)
     else:
-        image = grey.astype(np.float32) / 255.0
+        image: np.ndarray = grey.astype(np.float32) / 255.0
         if (th, tw) != (h, w):
             interp = cv2.INTER_LINEAR if float(full["input_scale"]) >= 1.0 else cv2.INTER_AREA
             image = cv2.resize(image, (tw, th), interpolation=interp)
