@@ -5,7 +5,7 @@ registry looks the backend's token up here. Each entry says where its implementa
 only when an extractor of that kind first extracts: OpenCV for ``opencv``, ONNX Runtime or torch for
 ``xfeat``) and how to tell, without importing anything heavy, whether it can run in this process.
 An unknown kind is an error that lists the known ones; ``register`` adds a kind (a new learned model
-is one module with ``extract(spec, grey, params, mask) -> Features`` and one line here).
+is one module with ``extract(spec, grey, params, mask, settings) -> Features`` and one line here).
 
     >>> backend("opencv").kind
     'opencv'

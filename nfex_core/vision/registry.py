@@ -32,6 +32,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from ..config import Settings
 from ..errors import BadInput, UnknownName
 from ..kg.vocab import ExtractorSpec, Value, Vocabulary
 from .backends import backend
@@ -70,13 +71,14 @@ def as_grey_u8(image: np.ndarray) -> np.ndarray:
 class ExtractorRegistry:
     """Extractors by name, as the graph describes them; each runs on its backend (vision.backends)."""
 
-    def __init__(self, specs: Mapping[str, ExtractorSpec]) -> None:
+    def __init__(self, specs: Mapping[str, ExtractorSpec], settings: Settings | None = None) -> None:
         self.specs = dict(specs)
+        self.settings = settings or Settings.from_env()  # a learned backend's runtime, threads, weights, cache
         self._extract_fns: dict[str, Callable[..., Features]] = {}
 
     @classmethod
-    def from_vocabulary(cls, vocab: Vocabulary) -> ExtractorRegistry:
-        return cls(vocab.extractors)
+    def from_vocabulary(cls, vocab: Vocabulary, settings: Settings | None = None) -> ExtractorRegistry:
+        return cls(vocab.extractors, settings)
 
     @property
     def names(self) -> list[str]:
@@ -124,9 +126,9 @@ class ExtractorRegistry:
         fn = self._extract_fns.get(spec.backend)
         if fn is None:
             entry = backend(spec.backend)
-            entry.availability().require()
+            entry.availability(self.settings).require()
             fn = self._extract_fns[spec.backend] = entry.extract_function()
-        return fn(spec, as_grey_u8(image), full, mask)
+        return fn(spec, as_grey_u8(image), full, mask, self.settings)
 
 
 def _opencv_spec(spec: ExtractorSpec) -> ExtractorSpec:
@@ -155,7 +157,8 @@ def _detector(spec: ExtractorSpec, args: dict[str, Value]) -> Any:
     return detector
 
 
-def extract_opencv(spec: ExtractorSpec, grey: np.ndarray, full: Mapping[str, Value], mask: np.ndarray | None) -> Features:
+def extract_opencv(spec: ExtractorSpec, grey: np.ndarray, full: Mapping[str, Value], mask: np.ndarray | None,
+                   settings: Settings | None = None) -> Features:
     """The ``opencv`` backend: ``detectAndCompute`` (or detect, spread over the grid, compute)."""
     detector = _detector(spec, _constructor_args(spec, full))
     norm_name = spec.norm_for(full)

@@ -28,6 +28,7 @@ from collections.abc import Mapping
 import cv2
 import numpy as np
 
+from ...config import Settings
 from ...errors import ParameterError
 from ...kg.vocab import ExtractorSpec, Value
 from ..features import Features
@@ -139,12 +140,13 @@ def sparse_features(
     return pos[keep], scores[keep].astype(np.float32), descriptors.astype(np.float32)
 
 
-def extract(spec: ExtractorSpec, grey: np.ndarray, full: Mapping[str, Value], mask: np.ndarray | None = None) -> Features:
+def extract(spec: ExtractorSpec, grey: np.ndarray, full: Mapping[str, Value], mask: np.ndarray | None = None,
+            settings: Settings | None = None) -> Features:
     """XFeat on a grey uint8 frame with the validated parameters ``full`` (top_k, detection_threshold,
     input_scale); ``mask`` (non-zero where features may lie) filters the keypoints as OpenCV's does.
     The backend entry point (vision.backends): the process's network, loaded on first use."""
     network_size(grey.shape[0], grey.shape[1], float(full["input_scale"]))  # a frame too small fails before any loading
-    return detect(network(), spec, grey, full, mask)
+    return detect(network(settings), spec, grey, full, mask)
 
 
 def detect(net: XFeatNetwork, spec: ExtractorSpec, grey: np.ndarray, full: Mapping[str, Value],
