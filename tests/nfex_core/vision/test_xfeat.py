@@ -14,7 +14,7 @@ import pytest
 
 from nfex_core.config import Settings
 from nfex_core.errors import ModelUnavailable, ParameterError
-from nfex_core.kg import KnowledgeGraph
+from nfex_core.knowledge import open_graph
 from nfex_core.kg.vocab import Vocabulary
 from nfex_core.vision.backends import unavailable
 from nfex_core.vision.learned import model
@@ -114,15 +114,15 @@ def test_serving_exports_in_a_child_and_never_imports_torch(xfeat_ready: None, t
     script = textwrap.dedent("""
         import sys, numpy as np
         from nfex_core.vision.registry import ExtractorRegistry
-        from nfex_core.kg import KnowledgeGraph
-        kg = KnowledgeGraph.open(sys.argv[1], seed=False)
+        from nfex_core.knowledge import open_graph
+        kg = KnowledgeGraph.open(sys.argv[1])
         reg = ExtractorRegistry.from_vocabulary(kg.vocabulary())
         image = (np.random.default_rng(1).random((128, 160)) * 255).astype(np.uint8)
         feats = reg.extract("XFEAT", image)
         print(len(feats), "torch" in sys.modules, "onnxruntime" in sys.modules)
     """)
     store = tmp_path / "store"
-    KnowledgeGraph.open(str(store)).close()
+    open_graph(str(store)).close()
     env = {**os.environ, "NFEX_LEARNED_CACHE": str(tmp_path / "cache"), "NFEX_LEARNED_RUNTIME": "onnx"}
     env.pop("NFEX_XFEAT_WEIGHTS", None)
     for _ in range(2):
