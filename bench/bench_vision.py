@@ -31,9 +31,8 @@ import cv2
 import numpy as np
 
 from nfex_core.config import Settings
-from nfex_core.kg import KnowledgeGraph
-from nfex_core.knowledge import open_graph
 from nfex_core.kg.vocab import Vocabulary
+from nfex_core.knowledge import open_graph
 from nfex_core.vision import metrics as M
 from nfex_core.vision.backends import unavailable
 from nfex_core.vision.context import ESTIMATORS, estimate_context, frame_statistics

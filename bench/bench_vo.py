@@ -16,7 +16,6 @@ import time
 
 from nfex_core.config import Settings
 from nfex_core.datasets import ArraySequence, open_sequence
-from nfex_core.kg import KnowledgeGraph
 from nfex_core.knowledge import open_graph
 from nfex_core.vision.backends import unavailable
 from nfex_core.vision.registry import ExtractorRegistry

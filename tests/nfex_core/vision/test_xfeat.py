@@ -14,8 +14,8 @@ import pytest
 
 from nfex_core.config import Settings
 from nfex_core.errors import ModelUnavailable, ParameterError
-from nfex_core.knowledge import open_graph
 from nfex_core.kg.vocab import Vocabulary
+from nfex_core.knowledge import open_graph
 from nfex_core.vision.backends import unavailable
 from nfex_core.vision.learned import model
 from nfex_core.vision.learned.xfeat import FrameTooSmall, network_size
@@ -115,7 +115,7 @@ def test_serving_exports_in_a_child_and_never_imports_torch(xfeat_ready: None, t
         import sys, numpy as np
         from nfex_core.vision.registry import ExtractorRegistry
         from nfex_core.knowledge import open_graph
-        kg = KnowledgeGraph.open(sys.argv[1])
+        kg = open_graph(sys.argv[1])
         reg = ExtractorRegistry.from_vocabulary(kg.vocabulary())
         image = (np.random.default_rng(1).random((128, 160)) * 255).astype(np.uint8)
         feats = reg.extract("XFEAT", image)
