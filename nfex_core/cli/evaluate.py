@@ -59,12 +59,27 @@ def evaluate(
     if seq.poses is None:
         raise BadInput(f"{path}: the sequence has no ground truth; ATE needs it")
     kg = open_kg()
+    if not methods:  # the default list leaves out what cannot run here (a learned extractor without its extra)
+        from ..vision.backends import unavailable
+
+        absent = unavailable(kg.vocabulary().extractors, kg.settings)
+        for m in [m for m in chosen if m.split("-")[0].upper() in absent]:
+            chosen.remove(m)
+            typer.echo(f"nfex: {m} left out: {absent[m.split('-')[0].upper()].detail}", err=True)
     try:
-        known = known_methods(kg.vocabulary())
+        vocab = kg.vocabulary()
+        known = known_methods(vocab)
         chosen = list(split_values(methods)) or known
         for m in chosen:
             if m not in known:
                 raise BadInput(f"unknown method {m!r}; known: {', '.join(known)}")
+        if not methods:  # the default list leaves out what cannot run here (a learned extractor without its extra)
+            from ..vision.backends import unavailable
+
+            absent = {x.lower(): why for x, why in unavailable(vocab.extractors, kg.settings).items()}
+            for m in [m for m in chosen if m.rpartition("-")[0] in absent]:
+                chosen.remove(m)
+                typer.echo(f"nfex: {m} left out: {absent[m.rpartition('-')[0]].detail}", err=True)
         conditions = list(split_values(corruption)) or ([] if schedule else ["none"])
         ev = run_evaluation(seq, kg, methods=chosen, runs=runs, corruptions=conditions, severity=severity,
                             budgets=budget_ms, frames=frames, schedule=schedule, checks=checks, oracle=oracle,

@@ -41,7 +41,7 @@ def _because(citations: Any) -> str:
 
 def render(sel: Selection) -> str:
     """The selection as text: choice, parameters with their reasons, context, candidates, pruned."""
-    lines = [f"{sel.extractor}  ({sel.constructor}, {sel.norm}; mode {sel.mode}; graph version {sel.versions['graph']})", "", "parameters:"]
+    lines = [f"{sel.extractor}  ({sel.constructor or 'learned model'}, {sel.norm}; mode {sel.mode}; graph version {sel.versions['graph']})", "", "parameters:"]
     best = next(c for c in sel.candidates if c.extractor == sel.extractor)
     changed = {a.parameter: a for a in best.adjustments}
     for name, value in sel.params.items():

@@ -35,6 +35,7 @@ class ParameterSpec:
     tunable: bool = False
     scales_with_resolution: bool = False
     grid_role: str | None = None  # "cellSize" | "oversample": applied by the registry, not passed to OpenCV
+    scales_input: bool = False  # nfex:scalesInput: the frame is resized by this factor before extraction
     label: str = ""
     comment: str = ""
 
@@ -113,13 +114,16 @@ class ExtractorSpec:
     iri: URIRef
     name: str
     label: str
-    constructor: str
+    constructor: str  # the OpenCV factory ("" for a learned model)
     norm: str
     descriptor_kind: str  # "binary" | "real"
     parameters: Mapping[str, ParameterSpec]
     norm_rules: tuple[NormRuleSpec, ...] = ()
     operations: tuple[str, ...] = ()
     comment: str = ""
+    backend: str = "opencv"  # the nfex:backend's token: which code runs it (vision.backends)
+    matcher: str = "ratio"  # the nfex:matcher's token: "ratio" | "mutual-ratio"
+    descriptor_size: int | None = None  # declared for learned models; OpenCV's detectors report theirs
 
     def parameter(self, name: str) -> ParameterSpec:
         try:
@@ -261,13 +265,13 @@ class Vocabulary:
         version = kg.version
         params: dict[str, dict[str, ParameterSpec]] = {}
         prow = kg.select(
-            """SELECT ?p ?x ?xname ?name ?dt ?role ?default ?min ?max ?tunable ?scales ?grid ?label ?comment WHERE {
+            """SELECT ?p ?x ?xname ?name ?dt ?role ?default ?min ?max ?tunable ?scales ?grid ?label ?comment ?input WHERE {
                 ?p a nfex:Parameter ; nfex:parameterOf ?x ; nfex:opencvName ?name ; nfex:datatype ?dt ;
                    nfex:role/nfex:token ?role ; nfex:defaultValue ?default .
                 ?x nfex:token ?xname .
                 OPTIONAL { ?p nfex:minValue ?min } OPTIONAL { ?p nfex:maxValue ?max }
                 OPTIONAL { ?p nfex:tunable ?tunable } OPTIONAL { ?p nfex:scalesWithResolution ?scales }
-                OPTIONAL { ?p nfex:gridRole/nfex:token ?grid }
+                OPTIONAL { ?p nfex:gridRole/nfex:token ?grid } OPTIONAL { ?p nfex:scalesInput ?input }
                 OPTIONAL { ?p rdfs:label ?label } OPTIONAL { ?p rdfs:comment ?comment }
             }"""
         ).rows
@@ -289,6 +293,7 @@ class Vocabulary:
                 tunable=bool(py(r["tunable"])) if "tunable" in r else False,
                 scales_with_resolution=bool(py(r["scales"])) if "scales" in r else False,
                 grid_role=str(r["grid"]) if "grid" in r else None,
+                scales_input=bool(py(r["input"])) if "input" in r else False,
                 label=str(r.get("label", "")),
                 comment=str(r.get("comment", "")),
             )
@@ -310,9 +315,12 @@ class Vocabulary:
 
         extractors: dict[str, ExtractorSpec] = {}
         for r in kg.select(
-            """SELECT ?x ?name ?ctor ?norm ?kind ?label ?comment WHERE {
-                ?x a nfex:FeatureExtractor ; nfex:token ?name ; nfex:opencvConstructor ?ctor ; nfex:matchNorm ?norm .
+            """SELECT ?x ?name ?ctor ?norm ?kind ?label ?comment ?backend ?matcher ?dsize WHERE {
+                ?x a nfex:FeatureExtractor ; nfex:token ?name ; nfex:matchNorm ?norm .
+                OPTIONAL { ?x nfex:opencvConstructor ?ctor }
                 OPTIONAL { ?x nfex:descriptorKind ?kind } OPTIONAL { ?x rdfs:label ?label } OPTIONAL { ?x rdfs:comment ?comment }
+                OPTIONAL { ?x nfex:backend/nfex:token ?backend } OPTIONAL { ?x nfex:matcher/nfex:token ?matcher }
+                OPTIONAL { ?x nfex:descriptorSize ?dsize }
             } ORDER BY ?name"""
         ).rows:
             name = str(r["name"])
@@ -321,13 +329,16 @@ class Vocabulary:
                 iri=r["x"],  # type: ignore[arg-type]
                 name=name,
                 label=str(r.get("label", name)),
-                constructor=str(r["ctor"]),
+                constructor=str(r.get("ctor", "")),
                 norm=str(r["norm"]),
                 descriptor_kind=kind,
                 parameters=dict(sorted(params.get(name, {}).items())),
                 norm_rules=tuple(norm_rules.get(name, [])),
                 operations=tuple(sorted(ops.get(name, []))),
                 comment=str(r.get("comment", "")),
+                backend=str(r.get("backend", "opencv")),
+                matcher=str(r.get("matcher", "ratio")),
+                descriptor_size=int(py(r["dsize"])) if "dsize" in r else None,
             )
 
         values: dict[str, dict[str, ConditionValueSpec]] = {}

@@ -219,11 +219,12 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
     shapes, shape_errors = load_context_shapes(kg, vocab, statements)
     errors += shape_errors
     measurements = _measurements(kg)
+    absent = backend_citations(kg, vocab.extractors)
     evidence = _evidence(measurements)
     decisions: dict[ContextKey, Decision] = {}
     for i, key in enumerate(keys):
         context = dict(zip(dims, key, strict=True))
-        pruned: dict[str, list[Citation]] = {}
+        pruned: dict[str, list[Citation]] = {x: [cite] for x, cite in absent.items()}
         for name, cite in pruned_by_rules.get(i, []):
             pruned.setdefault(name, []).append(cite)
         factors: dict[str, dict[str, Factor]] = {}
@@ -275,6 +276,18 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
     log.info("compiled %d contexts, %d rules, %d statements at graph version %d in %.0f ms", len(keys), len(rules), len(statements), version, ms)
     return RuleTable(version, dims, decisions, rules, statements, errors, ms, cost, budget_terms, step_checks,
                      configurations, least)
+
+
+BACKEND_RULE = "https://w3id.org/nfex#rule_backend_available"
+
+
+def backend_citations(kg: KnowledgeGraph, extractors: Mapping[str, ExtractorSpec]) -> dict[str, Citation]:
+    """Extractors whose backend cannot run in this process (a learned model without its extra or weights),
+    each with the citation that prunes it in every context: the reason says what to install or set."""
+    from ..vision.backends import unavailable  # no heavy import: it checks installed packages and files
+
+    return {x: Citation(BACKEND_RULE, "Extractor backend installed", a.detail, "backend")
+            for x, a in unavailable(extractors, kg.settings).items()}
 
 
 class RuleEngine:

@@ -35,7 +35,7 @@ class Citation:
     rule: str
     label: str
     reason: str
-    kind: str  # sparql | prune | adjust | weight | prefer | require | budget | shape | measured | verify
+    kind: str  # sparql | prune | adjust | weight | prefer | require | budget | shape | measured | verify | backend
     source: str | None = None
 
     def as_dict(self) -> dict[str, Any]:

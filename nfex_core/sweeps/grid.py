@@ -25,6 +25,8 @@ PRESETS: dict[str, dict[str, list[Value]]] = {
     "ORB_GRID": {"nfeatures": [500, 1000, 2000, 3000], "nlevels": [4, 8], "fastThreshold": [10, 20]},
     "AKAZE": {"threshold": [0.0005, 0.001, 0.002], "nOctaves": [3, 4], "nOctaveLayers": [2, 4], "diffusivity": [1, 2]},
     "BRISK": {"thresh": [15, 30, 60], "octaves": [2, 3], "patternScale": [0.8, 1.0]},
+    # XFeat (issue 15): its cost is the input scale's square; top_k 1024 against the authors' 4096
+    "XFEAT": {"top_k": [1024, 4096], "input_scale": [0.5, 0.75, 1.0]},
 }
 
 

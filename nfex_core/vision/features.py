@@ -2,7 +2,7 @@
 
 Keypoints are kept as NumPy arrays (positions, size, angle, response, octave) so metrics and the VO
 work on arrays; ``keypoints()`` rebuilds ``cv2.KeyPoint`` objects where OpenCV wants them.
-Descriptors are an (N, D) array — uint8 for binary descriptors (matched with a Hamming norm),
+Learned extractors (XFeat) fill the same arrays from their own outputs. Descriptors are an (N, D) array — uint8 for binary descriptors (matched with a Hamming norm),
 float32 for real ones (L2) — and an (0, D) array when the frame yields no feature, never ``None``.
 """
 from __future__ import annotations
@@ -27,6 +27,7 @@ class Features:
     descriptor_kind: str  # "binary" | "real"
     image_shape: tuple[int, int]  # (H, W) of the image they were extracted from
     elapsed_ms: float  # wall time of detectAndCompute
+    matcher: str = "ratio"  # the graph's matcher: "ratio" (Lowe's test) | "mutual-ratio" (and mutual nearest neighbours)
 
     def __len__(self) -> int:
         return int(self.xy.shape[0])
@@ -59,6 +60,7 @@ class Features:
             self.descriptor_kind,
             self.image_shape,
             self.elapsed_ms,
+            self.matcher,
         )
 
     @classmethod
@@ -74,6 +76,7 @@ class Features:
         descriptor_kind: str,
         image_shape: tuple[int, int],
         elapsed_ms: float,
+        matcher: str = "ratio",
     ) -> Features:
         n = len(keypoints)
         dtype = np.uint8 if descriptor_kind == "binary" else np.float32
@@ -92,4 +95,5 @@ class Features:
             descriptor_kind=descriptor_kind,
             image_shape=image_shape,
             elapsed_ms=elapsed_ms,
+            matcher=matcher,
         )

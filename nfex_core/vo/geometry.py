@@ -2,7 +2,9 @@
 
 Matching (Lowe's ratio test, Lowe 2004 §7.1): for each descriptor of frame k−1 the two nearest
 descriptors of frame k under the extractor's own norm (Hamming for ORB/BRISK/AKAZE, L2 for SIFT, as
-the graph says); a match is kept when d₁ < ρ·d₂ (ρ = 0.8 by default).
+the graph says); a match is kept when d₁ < ρ·d₂ (ρ = 0.8 by default). Where the graph's matcher for
+the extractor is ``mutual-ratio`` (XFeat), a match is also kept only when the previous feature is the
+current one's nearest neighbour (mutual nearest neighbours, as XFeat's authors match).
 
 Relative pose (Nistér's five-point algorithm in RANSAC, ``cv2.findEssentialMat``, then the chirality
 check of ``cv2.recoverPose``): x₂ᵀ E x₁ = 0 with E = [t]ₓR, giving R and a unit-length t such that a
@@ -43,6 +45,9 @@ def match(prev: Features, cur: Features, ratio: float = 0.8) -> MatchResult:
     empty = np.zeros(0, dtype=np.int64)
     if len(prev) < 2 or len(cur) < 2 or prev.descriptors.shape[1] != cur.descriptors.shape[1]:
         return MatchResult(empty, empty, (time.perf_counter() - t0) * 1000)
+    if "mutual-ratio" in (prev.matcher, cur.matcher) and cur.norm == cv2.NORM_L2:
+        qm, tm = mutual_ratio_l2(prev.descriptors, cur.descriptors, ratio)
+        return MatchResult(qm, tm, (time.perf_counter() - t0) * 1000)
     matcher = cv2.BFMatcher(cur.norm, crossCheck=False)
     pairs = matcher.knnMatch(prev.descriptors, cur.descriptors, k=2)
     q: list[int] = []
@@ -56,6 +61,43 @@ def match(prev: Features, cur: Features, ratio: float = 0.8) -> MatchResult:
     _, first = np.unique(train, return_index=True)
     keep = np.sort(first)
     return MatchResult(np.asarray(q, dtype=np.int64)[keep], train[keep], (time.perf_counter() - t0) * 1000)
+
+
+def mutual_ratio_l2(a: np.ndarray, b: np.ndarray, ratio: float, chunk: int = 1024) -> tuple[np.ndarray, np.ndarray]:
+    """Mutual nearest neighbours under L2 that pass the ratio test: (indices into a, indices into b).
+
+    Squared distances from one matrix product, ‖x‖² + ‖y‖² − 2x·y, in row chunks (memory stays
+    chunk × len(b)); the same pairs as BFMatcher(NORM_L2) knnMatch + a reverse match, at BLAS speed.
+    """
+    a = np.asarray(a, np.float32)
+    b = np.asarray(b, np.float32)
+    aa = np.einsum("ij,ij->i", a, a)
+    bb = np.einsum("ij,ij->i", b, b)
+    col_best = np.full(len(b), np.inf, np.float32)
+    col_arg = np.zeros(len(b), np.int64)
+    first = np.zeros(len(a), np.int64)
+    passes = np.zeros(len(a), bool)
+    cols = np.arange(len(b))
+    for start in range(0, len(a), chunk):
+        x = a[start:start + chunk]
+        rows = np.arange(len(x))
+        d2 = x @ b.T  # becomes ‖x‖² + ‖y‖² − 2x·y in place: one chunk × len(b) array
+        d2 *= -2.0
+        d2 += aa[start:start + chunk, None]
+        d2 += bb[None, :]
+        best = np.argmin(d2, axis=1)
+        d1 = d2[rows, best].copy()
+        d2[rows, best] = np.inf
+        second = d2.min(axis=1)
+        d2[rows, best] = d1
+        first[start:start + len(x)] = best
+        passes[start:start + len(x)] = np.sqrt(np.maximum(d1, 0)) < ratio * np.sqrt(np.maximum(second, 0))
+        arg = np.argmin(d2, axis=0)
+        val = d2[arg, cols]
+        better = val < col_best
+        col_best[better], col_arg[better] = val[better], arg[better] + start
+    q = np.flatnonzero(passes & (col_arg[first] == np.arange(len(a))))
+    return q.astype(np.int64), first[q].astype(np.int64)
 
 
 def undistort(xy: np.ndarray, intrinsics: Intrinsics) -> np.ndarray:

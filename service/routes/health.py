@@ -8,6 +8,8 @@ from fastapi import APIRouter, Request
 from fastapi.responses import JSONResponse, Response
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 
+from nfex_core.vision.backends import status as backend_status
+
 from ..deps import KGDep, SessionsDep
 
 router = APIRouter(tags=["operations"])
@@ -33,6 +35,8 @@ def readyz(request: Request, kg: KGDep) -> JSONResponse:
     if snap is not None:
         body["rule_table"] = {"version": snap.version, "rules": len(snap.table.rules), "contexts": len(snap.table.decisions),
                               "compile_ms": round(snap.table.compile_ms, 1)}
+        # which backends can run here: a learned extractor without its extra is pruned, and this says why
+        body["backends"] = backend_status(snap.vocab.extractors, kg.settings)
     return JSONResponse(body, status_code=200 if body["status"] == "ready" else 503)
 
 

@@ -128,3 +128,21 @@ def test_an_extractor_never_measured_has_no_model(bare_kg: KnowledgeGraph) -> No
     assert model.extractors == {} and model.typical_size is None
     assert json.loads(json.dumps(model.as_dict()))["measured_configurations"] == 0
     assert isinstance(CostModel().as_dict(), dict)
+
+
+def test_an_input_scale_parameter_counts_the_pixels_processed(bare_kg: KnowledgeGraph) -> None:
+    """XFeat resizes the frame by input_scale s (nfex:scalesInput): its cost grows with s²·W·H, so one
+    fit over several scales predicts the others, and the fallback rate counts processed pixels too."""
+    kg = bare_kg
+    rows = []
+    for i, (s, k) in enumerate((s, k) for s in (0.5, 1.0) for k in (1024, 4096)):
+        p = {"input_scale": s, "top_k": k}
+        rows.append(row(kg, "XFEAT", p, 300.0 * s * s * 1241 * 376 / 1e6 + 2.0 * k / 1000, f"xf{i}"))
+    add_rows(kg, rows)
+    spec = kg.vocabulary().extractor("XFEAT")
+    model = fit_cost_model(kg, kg.vocabulary().extractors)
+    xf = model.extractors["XFEAT"]
+    assert xf.scale == "input_scale" and (xf.per_mp, xf.per_kfeature) == pytest.approx((300.0, 2.0), rel=1e-6)
+    e = model.expected(spec, {"input_scale": 0.75, "top_k": 2048}, 1241, 376)
+    assert e.source == "model" and e.ms == pytest.approx(300.0 * 0.5625 * 1241 * 376 / 1e6 + 2.0 * 2.048)
+    assert model.expected(spec, {"input_scale": 0.5}, 640, 480).ms < model.expected(spec, {}, 640, 480).ms / 3

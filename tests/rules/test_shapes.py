@@ -25,6 +25,8 @@ nfex:cfg a nfex:Configuration ; nfex:ofExtractor nfex:ORB .
 
 CASES = {
     # shape: (turtle, offending node, shape)
+    "backend without a token": ("nfex:FOOB a nfex:ExtractorBackend .", "FOOB", "ExtractorBackendShape"),
+    "matcher nFEX does not implement": ('nfex:FOOM a nfex:Matcher ; nfex:token "magic" .', "FOOM", "MatcherShape"),
     "extractor without constructor": (
         'nfex:FOO a nfex:FeatureExtractor ; nfex:token "FOO" ; nfex:matchNorm "NORM_HAMMING" ; '
         "nfex:descriptorKind nfex:BinaryDescriptor ; nfex:performs nfex:FASTHarris .",

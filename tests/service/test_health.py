@@ -3,10 +3,14 @@ OpenAPI with examples, one JSON log line per request."""
 from __future__ import annotations
 
 import json
+import shutil
+from pathlib import Path
 
 import httpx
 
-from .conftest import Service, assert_problem
+from tests.conftest import stop_process
+
+from .conftest import Service, assert_problem, start_service
 
 
 def test_health_readiness_and_vocabulary(service: Service) -> None:
@@ -17,7 +21,29 @@ def test_health_readiness_and_vocabulary(service: Service) -> None:
     assert ready["rule_table"]["contexts"] > 0
     vocab = httpx.get(service.url + "/v1/vocabulary").json()
     assert vocab["context"]["light"]["values"] == ["dark", "bright"]
-    assert set(vocab["extractors"]) == {"ORB", "ORB_GRID", "SIFT", "AKAZE", "BRISK"}
+    assert set(vocab["extractors"]) == {"ORB", "ORB_GRID", "SIFT", "AKAZE", "BRISK", "XFEAT"}
+    backends = ready["backends"]
+    assert backends["opencv"]["available"] is True and "ORB" in backends["opencv"]["extractors"]
+    assert backends["xfeat"]["extractors"] == ["XFEAT"] and isinstance(backends["xfeat"]["available"], bool)
+
+
+def test_a_learned_extractor_without_weights_is_absent_with_a_note(seeded_template: Path, tmp_path: Path) -> None:
+    """No weights file: the service starts, /readyz says why XFeat cannot run, and every selection lists
+    XFEAT as pruned by nfex:rule_backend_available with that reason, never an import error."""
+    store = tmp_path / "store"
+    shutil.copytree(seeded_template, store, ignore=shutil.ignore_patterns("LOCK"))
+    svc = start_service(str(store), tmp_path / "service.log", {"NFEX_XFEAT_WEIGHTS": str(tmp_path / "missing.pt")})
+    try:
+        xfeat = httpx.get(svc.url + "/readyz").json()["backends"]["xfeat"]
+        assert xfeat["available"] is False and xfeat["setting"] == "NFEX_XFEAT_WEIGHTS"
+        assert str(tmp_path / "missing.pt") in xfeat["detail"]
+        sel = httpx.post(svc.url + "/v1/select", json={"context": {"light": "dark"}}).json()
+        assert sel["extractor"] != "XFEAT" and all(c["extractor"] != "XFEAT" for c in sel["candidates"])
+        [pruned] = [p for p in sel["pruned"] if p["extractor"] == "XFEAT"]
+        assert pruned["because"][0]["rule"] == "https://w3id.org/nfex#rule_backend_available"
+        assert "missing.pt" in pruned["because"][0]["reason"]
+    finally:
+        stop_process(svc.proc)
 
 
 def test_unknown_route_and_method_are_problem_json(service: Service) -> None:

@@ -26,3 +26,23 @@ def test_nfex_evaluate_json_and_files(cli_env: dict[str, str], data_dir: Path, t
 def test_nfex_evaluate_unknown_method_exits_2(cli_env: dict[str, str], data_dir: Path, tmp_path: Path) -> None:
     r = run_cli(["evaluate", str(data_dir / "kitti"), "--sequence", "01", "--methods", "magic"], cli_env)
     assert r.returncode == 2 and "orb-default" in r.stderr
+
+
+@pytest.mark.slow
+def test_nfex_evaluate_xfeat_default_runs_and_without_weights_exits_2(cli_env: dict[str, str], data_dir: Path,
+                                                                       tmp_path: Path) -> None:
+    """`-m xfeat-default` is a static baseline like ORB's; with its weights missing: one line, exit 2."""
+    from nfex_core.config import Settings
+    from nfex_core.vision.learned.model import availability
+
+    if not availability(Settings.from_env()).ok:
+        pytest.skip("the learned extra is not installed")
+    args = ["evaluate", str(data_dir / "kitti"), "--sequence", "01", "--frames", "4", "--methods", "xfeat-default",
+            "--out", str(tmp_path / "ev"), "--json", "--no-plots"]
+    r = run_cli(args, cli_env)
+    assert r.returncode == 0, r.stderr
+    m = json.loads(r.stdout)["methods"]["xfeat-default"]
+    assert m["runs"] == 1 and m["ms_per_frame"] > 0
+    missing = run_cli(args, {**cli_env, "NFEX_XFEAT_WEIGHTS": str(tmp_path / "gone.pt")})
+    assert missing.returncode == 2, missing.stderr
+    assert "gone.pt" in missing.stderr and "Traceback" not in missing.stderr and len(missing.stderr.strip().splitlines()) == 1

@@ -84,3 +84,10 @@ def test_with_the_shipped_measurements_the_measured_extractor_wins(shipped_cli_e
     sift = next(c for c in sel["candidates"] if c["extractor"] == "SIFT")
     assert sift["evidence"]["windows"] > 0 and sift["evidence"]["mean_ate_m"] > 0
     assert all(not b["rule"].endswith("rule_expert_fast_car_gradient_histograms") for x in sel["pruned"] for b in x["because"])
+
+
+def test_without_xfeat_weights_select_says_what_to_install(bare_cli_env: dict[str, str], tmp_path: Path) -> None:
+    p = run_cli(["select", "-c", "light=dark"], {**bare_cli_env, "NFEX_XFEAT_WEIGHTS": str(tmp_path / "x.pt")})
+    assert p.returncode == 0, p.stderr
+    line = next(ln for ln in p.stdout.splitlines() if ln.strip().startswith("XFEAT:"))
+    assert "x.pt does not exist" in line and "rule_backend_available" in line and "Traceback" not in p.stderr

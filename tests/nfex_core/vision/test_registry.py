@@ -14,12 +14,14 @@ from nfex_core.kg.vocab import Vocabulary
 from nfex_core.vision.features import Features
 from nfex_core.vision.registry import ExtractorRegistry
 
-ONTOLOGY = Path(__file__).resolve().parents[3] / "ontology" / "extractors.ttl"
+ONTOLOGY = [Path(__file__).resolve().parents[3] / "ontology" / f for f in ("extractors.ttl", "learned.ttl")]
 NFEX = rdflib.Namespace("https://w3id.org/nfex#")
 
 
 def _ontology_extractors() -> list[str]:
-    g = rdflib.Graph().parse(ONTOLOGY)
+    g = rdflib.Graph()
+    for path in ONTOLOGY:
+        g.parse(path)
     return sorted(str(t) for x in g.subjects(rdflib.RDF.type, NFEX.FeatureExtractor) for t in g.objects(x, NFEX.token))
 
 
@@ -28,7 +30,20 @@ EXTRACTORS = _ontology_extractors()
 
 def test_the_seeded_graph_registers_the_four_extractors(registry: ExtractorRegistry) -> None:
     assert registry.names == EXTRACTORS
-    assert {"ORB", "SIFT", "AKAZE", "BRISK"} <= set(registry.names)
+    assert {"ORB", "SIFT", "AKAZE", "BRISK", "XFEAT"} <= set(registry.names)
+
+
+@pytest.fixture(scope="module")
+def runnable(vocab: Vocabulary) -> set[str]:
+    """The extractors whose backend runs here (XFeat needs the `learned` extra, which `make test` installs)."""
+    from nfex_core.vision.backends import unavailable
+
+    return set(vocab.extractors) - set(unavailable(vocab.extractors))
+
+
+def _need(name: str, runnable: set[str]) -> None:
+    if name not in runnable:
+        pytest.skip(f"{name}'s backend cannot run here (pip install -e '.[learned]')")
 
 
 def check_contract(feats: Features, image: np.ndarray, spec_kind: str) -> None:
@@ -48,18 +63,22 @@ def check_contract(feats: Features, image: np.ndarray, spec_kind: str) -> None:
 
 
 @pytest.mark.parametrize("name", EXTRACTORS)
-def test_contract_on_a_real_frame(name: str, registry: ExtractorRegistry, euroc_pair: list[np.ndarray]) -> None:
+def test_contract_on_a_real_frame(name: str, registry: ExtractorRegistry, euroc_pair: list[np.ndarray],
+                                  runnable: set[str]) -> None:
+    _need(name, runnable)
     image = euroc_pair[0]
     spec = registry.spec(name)
     feats = registry.extract(name, image)
     assert len(feats) > 50, f"{name} found only {len(feats)} features on a textured EuRoC frame"
     check_contract(feats, image, spec.descriptor_kind)
-    assert feats.descriptors.shape[1] == int(registry.create(name).descriptorSize())
+    assert feats.descriptors.shape[1] == registry.descriptor_size(name)
     assert feats.norm_name == spec.norm_for(registry.resolve(name))
 
 
 @pytest.mark.parametrize("name", EXTRACTORS)
-def test_same_input_gives_the_same_output(name: str, vocab: Vocabulary, euroc_pair: list[np.ndarray]) -> None:
+def test_same_input_gives_the_same_output(name: str, vocab: Vocabulary, euroc_pair: list[np.ndarray],
+                                          runnable: set[str]) -> None:
+    _need(name, runnable)
     image = euroc_pair[1]
     a = ExtractorRegistry.from_vocabulary(vocab).extract(name, image)
     b = ExtractorRegistry.from_vocabulary(vocab).extract(name, image.copy())  # a fresh detector too
@@ -73,12 +92,14 @@ def test_same_input_gives_the_same_output(name: str, vocab: Vocabulary, euroc_pa
 
 @pytest.mark.parametrize("name", EXTRACTORS)
 @pytest.mark.parametrize("shape", [(480, 752), (64, 64), (376, 1241, 3)])
-def test_black_image_gives_zero_features_without_error(name: str, shape: tuple[int, ...], registry: ExtractorRegistry) -> None:
+def test_black_image_gives_zero_features_without_error(name: str, shape: tuple[int, ...], registry: ExtractorRegistry,
+                                                       runnable: set[str]) -> None:
+    _need(name, runnable)
     image = np.zeros(shape, np.uint8)
     feats = registry.extract(name, image)
     assert len(feats) == 0
     check_contract(feats, image, registry.spec(name).descriptor_kind)
-    assert feats.descriptors.shape == (0, int(registry.create(name).descriptorSize()))
+    assert feats.descriptors.shape == (0, registry.descriptor_size(name))
 
 
 @pytest.mark.parametrize("name", EXTRACTORS)
@@ -99,7 +120,7 @@ def test_out_of_range_parameters_name_the_parameter_and_its_range(name: str, reg
         checked += 1
     assert checked >= 3
     with pytest.raises(UnknownName) as unknown:
-        registry.create(name, {"no_such_parameter": 1})
+        registry.resolve(name, {"no_such_parameter": 1})
     assert f"{name}.no_such_parameter" in str(unknown.value)
     assert all(f"{name}.{p}" in str(unknown.value) for p in spec.parameters)
 
@@ -178,3 +199,50 @@ def test_the_opencv_recipe_a_selection_carries_builds_the_registrys_detector(
         assert "gridCellSize" not in recipe["args"] and "gridOversample" not in recipe["args"]
     else:
         assert recipe["grid"] is None and recipe["args"] == spec.defaults()
+
+
+LEARNED_TTL = """
+@prefix nfex: <https://w3id.org/nfex#> . @prefix rdfs: <http://www.w3.org/2000/01/rdf-schema#> .
+@prefix owl: <http://www.w3.org/2002/07/owl#> . @prefix xsd: <http://www.w3.org/2001/XMLSchema#> .
+nfex:SuperPointBackend a owl:NamedIndividual, nfex:ExtractorBackend, nfex:LearnedModelBackend ;
+    rdfs:label "SuperPoint"@en ; nfex:token "superpoint" .
+nfex:SUPERPOINT a owl:NamedIndividual, nfex:FeatureExtractor ; rdfs:label "SuperPoint"@en ;
+    nfex:token "SUPERPOINT" ; nfex:backend nfex:SuperPointBackend ; nfex:descriptorSize 256 ;
+    nfex:descriptorKind nfex:RealDescriptor ; nfex:matchNorm "NORM_L2" ; nfex:matcher nfex:MutualRatioMatcher ;
+    nfex:performs nfex:LearnedKeypointHeatmap, nfex:LearnedDenseDescriptor .
+"""
+
+
+def test_a_backend_kind_without_code_is_pruned_and_named(kg: KnowledgeGraph) -> None:
+    """A learned model the graph describes but no backend module implements: the registry's error and
+    the rule that prunes it both list the backend kinds that exist."""
+    from nfex_core.rules.engine import BACKEND_RULE, RuleEngine
+
+    kg.add(rdflib.Graph().parse(data=LEARNED_TTL, format="turtle"), author="test", message="add SuperPoint")
+    registry = ExtractorRegistry.from_vocabulary(kg.vocabulary())
+    with pytest.raises(UnknownName, match="unknown extractor backend 'superpoint'; known: opencv, xfeat"):
+        registry.extract("SUPERPOINT", np.zeros((64, 64), np.uint8))
+    decision = RuleEngine(kg).table().decide({})
+    assert "SUPERPOINT" not in decision.candidates
+    [cite] = decision.pruned["SUPERPOINT"]
+    assert cite.rule == BACKEND_RULE and "known: opencv, xfeat" in cite.reason
+
+
+@pytest.mark.parametrize(
+    ("change", "says"),
+    [
+        (LEARNED_TTL.replace("nfex:descriptorSize 256 ;", ""), "declares its nfex:descriptorSize"),
+        (LEARNED_TTL.replace("nfex:descriptorSize 256 ;", 'nfex:descriptorSize 256 ; nfex:opencvConstructor "ORB_create" ;'),
+         "names no OpenCV constructor"),
+        (KAZE_TTL.replace('nfex:opencvConstructor "xfeatures2d.KAZE_create" ;', ""), "names no nfex:opencvConstructor"),
+        (LEARNED_TTL.replace("nfex:matcher nfex:MutualRatioMatcher", "nfex:matcher nfex:SuperGlue") +
+         'nfex:SuperGlue a nfex:Matcher ; nfex:token "superglue" .', "ratio, mutual-ratio"),
+    ],
+)
+def test_shapes_check_backends_and_matchers(kg: KnowledgeGraph, change: str, says: str) -> None:
+    from nfex_core.errors import ValidationFailed
+
+    before = kg.version
+    with pytest.raises(ValidationFailed, match=says):
+        kg.add(rdflib.Graph().parse(data=change, format="turtle"), author="test", message="bad extractor")
+    assert kg.version == before

@@ -48,3 +48,23 @@ def test_relative_pose_recovers_rotation_and_direction(angles, direction, seed) 
 def test_too_few_points_is_no_model() -> None:
     p = np.zeros((4, 2))
     assert relative_pose(p, p, K) is None
+
+
+def test_mutual_ratio_matching_equals_opencv_knn_and_reverse_match() -> None:
+    """The mutual-ratio matcher (XFeat's, from the graph) at BLAS speed gives the pairs that OpenCV's
+    brute-force knnMatch (ratio test) plus a reverse match (mutual check) give."""
+    import cv2
+
+    from nfex_core.vo.geometry import mutual_ratio_l2
+
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(700, 64)).astype(np.float32)
+    b = np.concatenate([a[:400] + 0.3 * rng.normal(size=(400, 64)).astype(np.float32),
+                        rng.normal(size=(500, 64)).astype(np.float32)])
+    q, t = mutual_ratio_l2(a, b, 0.8, chunk=128)
+    bf = cv2.BFMatcher(cv2.NORM_L2)
+    back = bf.match(b, a)
+    expected = {(m[0].queryIdx, m[0].trainIdx) for m in bf.knnMatch(a, b, k=2)
+                if m[0].distance < 0.8 * m[1].distance and back[m[0].trainIdx].trainIdx == m[0].queryIdx}
+    assert 300 < len(expected) <= 400
+    assert set(zip(q.tolist(), t.tolist(), strict=True)) == expected

@@ -71,3 +71,15 @@ def test_every_problem_is_reported(vocab: Vocabulary) -> None:
     assert [(e.extra["line"], e.extra["column"]) for e in found] == [(2, 7), (3, 8), (4, 25)]
     with pytest.raises(UnknownName, match=r"and 2 more problems"):
         check(p, vocab)
+
+
+def test_a_learned_extractor_is_named_like_any_other(vocab: Vocabulary) -> None:
+    """XFeat (issue 15) is in the graph, so statements may name it and its parameters, checked like ORB's."""
+    text = ('prune XFEAT when agent is drone because "no network on the drone\'s flight computer"\n'
+            "adjust XFEAT.top_k by 0.5 when light is dark\nrequire XFEAT.input_scale <= 0.75 when agent is human")
+    p = parse("program p\n" + text)
+    assert check(p, vocab) is p
+    e = _only("adjust XFEAT.topk by 2", vocab)
+    assert isinstance(e, UnknownName) and "XFEAT.top_k" in e.known
+    e = _only("require XFEAT.input_scale <= 2", vocab)
+    assert isinstance(e, ParameterError) and "outside its range" in e.detail

@@ -98,3 +98,15 @@ def test_seeding_stops_on_a_program_with_an_unknown_name(tmp_path: Path) -> None
     s = Settings.from_env()
     with pytest.raises(UnknownName, match=r"typo.nfex:1:25: unknown value of light 'dim'; known: bright, dark"):
         seed_graph(Settings(s.store, home, s.data, s.models))
+
+
+def test_a_program_pruning_xfeat_for_drones_applies(kg: KnowledgeGraph) -> None:
+    """`prune XFEAT when agent is drone` compiles to the graph and the rule table prunes it, citing the line."""
+    from nfex_core.rules.engine import RuleEngine
+
+    _apply(kg, 'program learned\nprune XFEAT when agent is drone because "no accelerator on board"\n')
+    table = RuleEngine(kg).table()
+    drone = table.decide({"agent": "drone"})
+    assert "XFEAT" not in drone.candidates
+    assert any(c.reason == "no accelerator on board" for c in drone.pruned["XFEAT"])
+    assert all(c.reason != "no accelerator on board" for c in table.decide({"agent": "car"}).pruned.get("XFEAT", ()))
