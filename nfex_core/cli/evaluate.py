@@ -59,13 +59,6 @@ def evaluate(
     if seq.poses is None:
         raise BadInput(f"{path}: the sequence has no ground truth; ATE needs it")
     kg = open_kg()
-    if not methods:  # the default list leaves out what cannot run here (a learned extractor without its extra)
-        from ..vision.backends import unavailable
-
-        absent = unavailable(kg.vocabulary().extractors, kg.settings)
-        for m in [m for m in chosen if m.split("-")[0].upper() in absent]:
-            chosen.remove(m)
-            typer.echo(f"nfex: {m} left out: {absent[m.split('-')[0].upper()].detail}", err=True)
     try:
         vocab = kg.vocabulary()
         known = known_methods(vocab)

@@ -22,23 +22,11 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from ..config import Settings
-from ..errors import ModelUnavailable, UnknownName
+from ..errors import UnknownName
+from .availability import Availability
 
 if TYPE_CHECKING:
     from ..kg.vocab import ExtractorSpec
-
-
-@dataclass(frozen=True)
-class Availability:
-    """Whether a backend can run in this process; if not, why and what to change (``setting``)."""
-
-    ok: bool
-    detail: str
-    setting: str = ""
-
-    def require(self) -> None:
-        if not self.ok:
-            raise ModelUnavailable(self.detail, setting=self.setting)
 
 
 def _always(settings: Settings) -> Availability:

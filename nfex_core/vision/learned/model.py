@@ -33,9 +33,8 @@ import numpy as np
 
 from ...config import Settings
 from ...errors import ModelUnavailable
-from ..backends import Availability
+from ..availability import Availability
 
-CELL = 8  # the keypoint head's cell: one logit per pixel of an 8×8 cell
 STRIDE = 32  # the backbone's total stride: the network's input sides are multiples of it
 DESCRIPTOR_SIZE = 64
 RUNTIMES = ("onnx", "torch")

@@ -20,7 +20,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from .model import CELL
+CELL = 8  # the keypoint head's cell: one logit per pixel of an 8×8 cell
 
 
 def xfeat_net() -> Any:
