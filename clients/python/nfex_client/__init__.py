@@ -10,7 +10,7 @@ OpenCV extractor a selection names.
 """
 from __future__ import annotations
 
-from .client import AsyncNfexClient, NfexClient, Selection, WriteResult
+from .client import AsyncNfexClient, NfexClient
 from .errors import (
     BadRequest,
     Conflict,
@@ -26,9 +26,10 @@ from .errors import (
     UnsupportedMediaType,
 )
 from .opencv import extractor_from_selection, matcher_from_selection
+from .schema import Selection, SessionSelection, WriteResult
 
 __all__ = [
-    "AsyncNfexClient", "NfexClient", "Selection", "WriteResult", "extractor_from_selection", "matcher_from_selection",
+    "AsyncNfexClient", "NfexClient", "Selection", "SessionSelection", "WriteResult", "extractor_from_selection", "matcher_from_selection",
     "NfexClientError", "BadRequest", "Unauthorized", "Forbidden", "NotFound", "Conflict", "PreconditionFailed",
     "PayloadTooLarge", "UnsupportedMediaType", "Unprocessable", "TooManyRequests", "ServiceUnavailable",
 ]
