@@ -51,7 +51,7 @@ class MeasuredConfiguration(Out):
     iri: str
     mean_ate_m: float
     windows: int
-    because: Citation
+    because: Citation | None
 
 
 class Evidence(Out):
@@ -60,6 +60,7 @@ class Evidence(Out):
     mean_ate_m: float | None = Field(None, description="Mean ATE measured under the context's known conditions, metres.")
     windows: int | None = None
     extraction_ms: float | None = None
+    params_source: str | None = Field(None, description="Which source of the Θ′ chain set Θ′: measured | paramnet | rules.")
     configuration: MeasuredConfiguration | None = None
     expected_ms: float | None = Field(None, description="The cost model's extraction time at this frame size and compute class.")
     cost_source: str | None = None

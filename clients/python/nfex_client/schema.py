@@ -91,6 +91,7 @@ class Evidence(TypedDict):
     mean_ate_m: NotRequired[float | None]
     windows: NotRequired[int | None]
     extraction_ms: NotRequired[float | None]
+    params_source: NotRequired[str | None]
     configuration: NotRequired[MeasuredConfiguration | None]
     expected_ms: NotRequired[float | None]
     cost_source: NotRequired[str | None]
@@ -138,7 +139,7 @@ class MeasuredConfiguration(TypedDict):
     iri: str
     mean_ate_m: float
     windows: int
-    because: Citation
+    because: Citation | None
 
 
 class MetricBrief(TypedDict):
