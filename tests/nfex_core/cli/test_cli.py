@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 from tests.conftest import run_cli
@@ -140,8 +142,12 @@ def test_version(cli_env: dict[str, str]) -> None:
 
 
 def test_shell_completion(cli_env: dict[str, str]) -> None:
-    script = run_cli(["--show-completion", "bash"], cli_env)
-    assert script.returncode == 0 and "_nfex_completion" in script.stdout and "complete " in script.stdout
+    # as a user runs it from bash (typer detects the shell from the parent process; `; exit` keeps bash
+    # from exec-ing the command in its place)
+    script = subprocess.run(["bash", "-c", '"$0" -m nfex_core.cli.main --show-completion; exit $?', sys.executable],
+                            env=cli_env, capture_output=True, text=True, timeout=120)
+    assert script.returncode == 0, script.stderr
+    assert "_nfex_completion" in script.stdout and "complete " in script.stdout
     # what bash asks when the user presses TAB after `nfex kg ex`
     env = dict(cli_env, _NFEX_COMPLETE="complete_bash", COMP_WORDS="nfex kg ex", COMP_CWORD="2")
     p = run_cli([], env)
