@@ -6,6 +6,7 @@ import re
 from typing import Annotated
 
 from fastapi import Depends, Header, Request
+from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from nfex_core.advisor import Advisor
 from nfex_core.errors import BadInput, NfexError
@@ -20,6 +21,7 @@ class Unauthorized(NfexError):
     type = "unauthorized"
     title = "Unauthorized"
     exit_code = 2
+    headers = {"WWW-Authenticate": 'Bearer realm="nfex"'}  # RFC 6750 §3
 
 
 class Forbidden(NfexError):
@@ -45,12 +47,20 @@ def get_sessions(request: Request) -> SessionStore:
     return request.app.state.sessions
 
 
-def editor(request: Request, authorization: Annotated[str | None, Header()] = None) -> Token:
+# The OpenAPI security scheme (HTTP bearer, RFC 6750): a route that depends on it lists it in its
+# ``security``; auto_error is off so that a missing or non-bearer header is our own 401 problem+json.
+bearer = HTTPBearer(
+    scheme_name="bearer", auto_error=False,
+    description="A token from NFEX_TOKENS (name:token:role). Reads are open; writes need a token with the editor role.",
+)
+
+
+def editor(request: Request, credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(bearer)]) -> Token:
     """The editor behind ``Authorization: Bearer <token>``; 401 without a valid token, 403 without the role."""
     tokens: dict[str, Token] = request.app.state.tokens
-    if not authorization or not authorization.lower().startswith("bearer "):
+    if credentials is None:
         raise Unauthorized("this write needs 'Authorization: Bearer <token>' with the editor role (NFEX_TOKENS)")
-    given = authorization[7:].strip()
+    given = credentials.credentials.strip()
     found = None
     for secret, token in tokens.items():
         if hmac.compare_digest(secret.encode(), given.encode()):

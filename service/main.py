@@ -13,13 +13,15 @@ from nfex_core import __version__
 from nfex_core.advisor import Advisor
 from nfex_core.knowledge import open_graph
 
-from . import problems
+from . import openapi, problems
 from .config import Settings
+from .methods import MethodsMiddleware
 from .observability import Metrics, ServiceMiddleware, setup_logging
 from .routes import (
     conditions,
     extractors,
     feedback,
+    graph_store,
     health,
     programs,
     rules,
@@ -35,8 +37,8 @@ from .sparql_exec import QueryRunner
 log = logging.getLogger("nfex.service")
 
 DESCRIPTION = """nFEX tells a SLAM front end which feature extractor (α) to run, with which parameters (Θ′),
-and why. Reads are open; writes need `Authorization: Bearer <token>` with the editor role
-(`NFEX_TOKENS`). Every error is RFC 9457 `application/problem+json`. Writes accept
+and why. Reads are open; writes need a bearer token (security scheme `bearer`) with the editor role
+(`NFEX_TOKENS`). Every error is RFC 9457 `application/problem+json` (schema `Problem`). Writes accept
 `If-Match: "<graph version>"` and answer 412 when the head moved."""
 
 
@@ -82,9 +84,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             kg.close()
 
     app = FastAPI(title="nFEX", version=__version__, summary="Which feature extractor to run, with which parameters, and why.",
-                  description=DESCRIPTION, lifespan=lifespan)
+                  description=DESCRIPTION, lifespan=lifespan, docs_url=None, redoc_url=None)
     problems.install(app)
-    for module in (health, vocabulary, select, sessions, feedback, sparql, extractors, conditions, rules, programs, versions):
+    for module in (health, vocabulary, select, sessions, feedback, sparql, graph_store, extractors, conditions, rules, programs,
+                   versions):
         app.include_router(module.router)
+    openapi.install(app)
+    app.add_middleware(MethodsMiddleware)
     app.add_middleware(ServiceMiddleware, metrics=metrics, max_body_bytes=settings.max_body_bytes)
     return app

@@ -10,7 +10,9 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from nfex_core.errors import PROBLEM_BASE, NfexError
 
-PROBLEM_JSON = "application/problem+json"
+from .methods import allowed
+from .schemas.problems import PROBLEM_JSON
+
 log = logging.getLogger("nfex.service")
 
 
@@ -24,7 +26,8 @@ def install(app: FastAPI) -> None:
     async def _nfex(request: Request, exc: NfexError) -> JSONResponse:
         if exc.status >= 500:
             log.warning("%s %s: %s", request.method, request.url.path, exc.detail)
-        return JSONResponse(exc.problem(), status_code=exc.status, media_type=PROBLEM_JSON)
+        headers = getattr(exc, "headers", None)  # e.g. WWW-Authenticate on a 401
+        return JSONResponse(exc.problem(), status_code=exc.status, media_type=PROBLEM_JSON, headers=headers)
 
     @app.exception_handler(RequestValidationError)
     async def _validation(request: Request, exc: RequestValidationError) -> JSONResponse:
@@ -45,6 +48,8 @@ def install(app: FastAPI) -> None:
         resp = problem(exc.status_code, "http-" + str(exc.status_code), title, detail)
         for k, v in (exc.headers or {}).items():
             resp.headers[k] = v
+        if exc.status_code == 405:  # every method of every route at this path, not the first route's
+            resp.headers["Allow"] = ", ".join(allowed(request.app, request.scope))
         return resp
 
     @app.exception_handler(Exception)

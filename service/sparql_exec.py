@@ -23,69 +23,8 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
-from nfex_core.errors import NfexError, QueryLimitExceeded
-from nfex_core.kg.backends import GRAPH_FORMATS, RESULT_FORMATS, Backend
-
-
-class NotAcceptable(NfexError):
-    status = 406
-    type = "not-acceptable"
-    title = "Not acceptable"
-    exit_code = 2
-
-
-ALIASES = {
-    "application/json": "application/sparql-results+json",
-    "application/xml": "application/sparql-results+xml",
-    "text/xml": "application/sparql-results+xml",
-    "text/plain": "application/n-triples",
-    "application/x-turtle": "text/turtle",
-}
-FORMAT_PARAM = {
-    "json": "application/sparql-results+json",
-    "xml": "application/sparql-results+xml",
-    "csv": "text/csv",
-    "tsv": "text/tab-separated-values",
-    "turtle": "text/turtle",
-    "ttl": "text/turtle",
-    "ntriples": "application/n-triples",
-    "nt": "application/n-triples",
-    "jsonld": "application/ld+json",
-    "rdfxml": "application/rdf+xml",
-}
-
-
-def negotiate(accept: str | None, form: str) -> str:
-    """The media type to answer a ``form`` query with, from an Accept header (q-values honoured)."""
-    offered = list(GRAPH_FORMATS) if form in ("construct", "describe") else list(RESULT_FORMATS)
-    if not accept:
-        return offered[0]
-    ranked: list[tuple[float, int, str]] = []
-    for i, part in enumerate(accept.split(",")):
-        fields = [f.strip() for f in part.split(";")]
-        media = fields[0].lower()
-        q = 1.0
-        for f in fields[1:]:
-            if f.startswith("q="):
-                try:
-                    q = float(f[2:])
-                except ValueError:
-                    q = 0.0
-        ranked.append((q, -i, ALIASES.get(media, media)))
-    for q, _, media in sorted(ranked, reverse=True):
-        if q <= 0:
-            continue
-        if media in offered:
-            return media
-        if media in ("*/*", "*"):
-            return offered[0]
-        if media.endswith("/*") and any(o.startswith(media[:-1]) for o in offered):
-            return next(o for o in offered if o.startswith(media[:-1]))
-        if media in ("application/sparql-results+json",) and form in ("construct", "describe"):
-            continue
-    raise NotAcceptable(
-        f"none of {accept!r} can carry a {form.upper()} result; offered: {', '.join(offered)}", offered=offered
-    )
+from nfex_core.errors import QueryLimitExceeded
+from nfex_core.kg.backends import Backend
 
 
 class LimitedWriter:
@@ -155,12 +94,14 @@ class QueryRunner:
         finally:
             self._slots.release()
 
-    async def run(self, query: str, media: str) -> QueryOutcome:
+    async def run(self, query: str, media: str, *, max_bytes: int | None = None) -> QueryOutcome:
+        """Run ``query`` within the time limit and ``max_bytes`` (default: the runner's result-size limit)."""
         if not self._slots.acquire(blocking=False):
             raise QueryLimitExceeded(
                 f"all {self.concurrency} query slots are busy (long-running queries); retry later", limit="concurrency"
             )
-        writer = LimitedWriter(self.max_bytes, time.monotonic() + self.timeout_s, self.timeout_s)
+        limit = self.max_bytes if max_bytes is None else max_bytes
+        writer = LimitedWriter(limit, time.monotonic() + self.timeout_s, self.timeout_s)
         loop = asyncio.get_running_loop()
         try:
             fut = loop.run_in_executor(self._pool, self._job, query, media, writer)

@@ -1,7 +1,7 @@
 """What the advisor answers: the extractor α*, its parameters Θ′, and why.
 
 Typed dataclasses; the JSON the CLI prints and the service returns is rendered here, in one place
-(``as_dict``), from these types. The service's response schema (service/schemas.py) describes it.
+(``as_dict``), from these types. The service's response schema (service/schemas/selection.py) describes it.
 """
 from __future__ import annotations
 

@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 
 from .common import author as author_of
-from .common import echo_json, open_kg, table
+from .common import echo_json, err, open_kg, table
 
 app = typer.Typer(help="Edit the knowledge graph: every write is one SHACL-checked, versioned transaction.", no_args_is_help=True)
 
@@ -148,7 +148,7 @@ def export(
         text = kg.export(format.value)
     if output:
         output.write_text(text)
-        typer.echo(f"wrote {output}")
+        err(f"wrote {output}")  # a message, not the export: stdout stays clean for pipes
     else:
         typer.echo(text, nl=False)
 

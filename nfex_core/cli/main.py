@@ -17,14 +17,25 @@ app = typer.Typer(
     help="nFEX: which feature extractor to run, with which parameters, and why.",
     no_args_is_help=True,
     pretty_exceptions_enable=False,
-    add_completion=False,
+    add_completion=True,  # --install-completion / --show-completion for bash, zsh, fish, PowerShell
 )
+
+
+def _version(value: bool) -> None:
+    if value:
+        from .. import __version__
+
+        typer.echo(f"nfex {__version__}")
+        raise typer.Exit()
 
 
 @app.callback()
 def _options(
     store: Annotated[str | None, typer.Option("--store", envvar="NFEX_STORE", help=STORE_HELP)] = None,
     debug: Annotated[bool, typer.Option("--debug", help="Print tracebacks.")] = False,
+    version: Annotated[
+        bool, typer.Option("--version", callback=_version, is_eager=True, help="Print the version and exit.")
+    ] = False,
 ) -> None:
     state.store = store
     state.debug = debug

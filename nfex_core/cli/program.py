@@ -8,7 +8,7 @@ import typer
 
 from ..errors import NotFound
 from .common import author as author_of
-from .common import echo_json, open_kg, settings, table
+from .common import echo_json, err, open_kg, settings, table
 
 app = typer.Typer(help="DSL programs: check and apply rule files, show what the graph holds.", no_args_is_help=True)
 
@@ -17,7 +17,7 @@ FileArg = Annotated[Path, typer.Argument(help="A program file (.nfex).", exists=
 
 @app.command()
 def check(file: FileArg) -> None:
-    """Parse FILE and check every name against the graph; print every problem with its line and column.
+    """Parse FILE and check every name against the graph; print every problem with its line and column (stderr).
 
     Exit 0 when the program is valid, 2 on a syntax error, an unknown name or a number out of range.
     """
@@ -28,10 +28,10 @@ def check(file: FileArg) -> None:
     program = parse_file(file, source=source_name(file, settings()))
     vocab = open_kg().vocabulary()
     found = problems(program, vocab)
-    for e in found:
-        typer.echo(e.detail)
-    if found:
-        raise found[0]
+    if found:  # every problem once, on stderr (stdout stays for results), then the first's exit code
+        for e in found:
+            err(f"nfex: {e.title.lower()}: {e.detail}")
+        raise typer.Exit(found[0].exit_code)
     typer.echo(f"ok: program {program.name}, {len(program.statements)} statements")
 
 

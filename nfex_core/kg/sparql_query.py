@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import re
 
-from ..errors import BadInput
+from ..errors import BadInput, ParseError
 from ..namespaces import PREFIXES
 
 _PROLOGUE = re.compile(r"^(?:\s*(?:PREFIX\s+[A-Za-z0-9_.-]*:\s*<[^>]*>|BASE\s*<[^>]*>))*\s*", re.IGNORECASE)
@@ -62,8 +62,40 @@ def classify(query: str) -> str:
     raise BadInput("not a SPARQL query: expected SELECT, ASK, CONSTRUCT or DESCRIBE after the prologue")
 
 
+def prefix_head(query: str) -> str:
+    """The PREFIX lines for nFEX's namespaces ``query`` does not declare itself."""
+    declared = {m.group(1) for m in _DECLARED.finditer(strip_comments(query))}
+    return "".join(f"PREFIX {p}: <{ns}>\n" for p, ns in PREFIXES.items() if p not in declared)
+
+
 def with_prefixes(query: str) -> str:
     """``query`` with PREFIX lines for nFEX's namespaces it does not declare itself."""
-    declared = {m.group(1) for m in _DECLARED.finditer(strip_comments(query))}
-    head = "".join(f"PREFIX {p}: <{ns}>\n" for p, ns in PREFIXES.items() if p not in declared)
-    return head + query
+    return prefix_head(query) + query
+
+
+# "error at 2:9" (Oxigraph, embedded and server), "line 3, column 5" (Jena), "line 3:" (Virtuoso)
+_AT = re.compile(r"\bat (\d+):(\d+)")
+_LINE = re.compile(r"\bline (\d+)(?:, column (\d+))?", re.IGNORECASE)
+
+
+def at_user_lines(error: ParseError, query: str) -> ParseError:
+    """``error``, raised parsing ``with_prefixes(query)``, with its positions in the lines of ``query``.
+
+    The hidden PREFIX lines shift every line number a parser reports; this moves them back (and sets
+    the problem's ``line``/``column``), so a user reads the position in the text they wrote."""
+    hidden = prefix_head(query).count("\n")
+    found: list[tuple[int, int | None]] = []
+
+    def shift(m: re.Match[str]) -> str:
+        line = int(m.group(1)) - hidden
+        if line < 1:
+            return m.group(0)
+        column = int(m.group(2)) if m.group(2) else None
+        found.append((line, column))
+        return m.group(0).replace(m.group(1), str(line), 1)
+
+    detail = _LINE.sub(shift, _AT.sub(shift, error.detail))
+    if not found:
+        return error
+    extra = {k: v for k, v in error.extra.items() if k not in ("line", "column")}
+    return ParseError(detail, line=found[0][0], column=found[0][1], **extra)

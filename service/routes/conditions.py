@@ -14,12 +14,12 @@ from nfex_core.namespaces import NFEX
 
 from ..deps import EditorDep, IfMatchDep, KGDep
 from ..editing import check_name, describe
-from ..schemas import PROBLEM_RESPONSES, ConditionValueIn, WriteResult
+from ..schemas import PROBLEM_RESPONSES, Conditions, ConditionValueIn, WriteResult, problems
 
 router = APIRouter(prefix="/v1/conditions", tags=["editing: conditions"], responses=PROBLEM_RESPONSES)
 
 
-@router.get("", summary="Condition dimensions and their values")
+@router.get("", summary="Condition dimensions and their values", response_model=Conditions)
 def list_conditions(kg: KGDep) -> dict[str, Any]:
     v = kg.vocabulary()
     return {
@@ -32,7 +32,8 @@ def list_conditions(kg: KGDep) -> dict[str, Any]:
     }
 
 
-@router.post("/{dimension}/values", status_code=201, summary="Add a condition value to a dimension")
+@router.post("/{dimension}/values", status_code=201, summary="Add a condition value to a dimension", response_model=WriteResult,
+             responses={200: {"model": WriteResult, "description": "The value was already there"}, **problems(409, 412)})
 def add_value(dimension: str, body: ConditionValueIn, kg: KGDep, token: EditorDep, expected: IfMatchDep) -> Response:
     dim = kg.vocabulary().dimension(dimension)
     check_name("condition value", body.name)  # IRI-safe; the graph's shapes decide what a token may be
@@ -45,7 +46,8 @@ def add_value(dimension: str, body: ConditionValueIn, kg: KGDep, token: EditorDe
     return WriteResult.of(result, iri=str(iri)).response(status=201 if result.changed else 200)
 
 
-@router.delete("/{dimension}/values/{value}", summary="Remove a condition value (refused while measurements use it)")
+@router.delete("/{dimension}/values/{value}", summary="Remove a condition value (refused while measurements use it)",
+               response_model=WriteResult, responses=problems(409, 412))
 def delete_value(dimension: str, value: str, kg: KGDep, token: EditorDep, expected: IfMatchDep) -> Response:
     spec = kg.vocabulary().condition_value(dimension, value)
     change = ChangeSet.removing(describe(kg, {spec.iri}))

@@ -20,7 +20,15 @@ from nfex_core.namespaces import NFEX
 
 from ..deps import EditorDep, IfMatchDep, KGDep
 from ..editing import check_name, describe, rdf_body, replace, subjects_of, turtle
-from ..schemas import PROBLEM_RESPONSES, ParameterPatch, WriteResult
+from ..schemas import (
+    PROBLEM_RESPONSES,
+    Extractor,
+    ExtractorList,
+    Parameter,
+    ParameterPatch,
+    WriteResult,
+    problems,
+)
 
 router = APIRouter(prefix="/v1/extractors", tags=["editing: extractors"], responses=PROBLEM_RESPONSES)
 EXTRACTOR_TTL = """@prefix nfex: <https://w3id.org/nfex#> .
@@ -47,13 +55,14 @@ def _param_dict(p: Any) -> dict[str, Any]:
             "label": p.label}
 
 
-@router.get("", summary="Every extractor the graph knows")
+@router.get("", summary="Every extractor the graph knows", response_model=ExtractorList)
 def list_extractors(kg: KGDep) -> dict[str, Any]:
     v = kg.vocabulary()
     return {"graph_version": v.version, "extractors": [_spec_dict(x) for x in v.extractors.values()]}
 
 
-@router.get("/{name}", summary="One extractor (JSON, or its RDF description with Accept: text/turtle)")
+@router.get("/{name}", summary="One extractor (JSON, or its RDF description with Accept: text/turtle)", response_model=Extractor,
+            responses={200: {"content": {"text/turtle": {"schema": {"type": "string"}}}}})
 def get_extractor(name: str, kg: KGDep, request: Request) -> Any:
     spec = kg.vocabulary().extractor(name)
     if "text/turtle" in request.headers.get("accept", ""):
@@ -65,6 +74,8 @@ def get_extractor(name: str, kg: KGDep, request: Request) -> Any:
 @router.put(
     "/{name}",
     summary="Create or replace an extractor (and its parameters) from RDF",
+    response_model=WriteResult,
+    responses={**{201: {"model": WriteResult, "description": "Created"}}, **problems(409, 412, 415)},
     openapi_extra={"requestBody": {"required": True, "content": {"text/turtle": {"schema": {"type": "string"}, "example": EXTRACTOR_TTL}}}},
 )
 async def put_extractor(name: str, request: Request, kg: KGDep, token: EditorDep, expected: IfMatchDep) -> Response:
@@ -86,7 +97,8 @@ async def put_extractor(name: str, request: Request, kg: KGDep, token: EditorDep
     return WriteResult.of(result, iri=str(iri)).response(status=201 if name not in vocab.extractors else 200)
 
 
-@router.delete("/{name}", summary="Remove an extractor and its parameters (refused while configurations use it)")
+@router.delete("/{name}", summary="Remove an extractor and its parameters (refused while configurations use it)",
+               response_model=WriteResult, responses=problems(409, 412))
 def delete_extractor(name: str, kg: KGDep, token: EditorDep, expected: IfMatchDep) -> Response:
     spec = kg.vocabulary().extractor(name)
     roots = {spec.iri} | subjects_of(kg, NFEX.parameterOf, spec.iri)
@@ -95,12 +107,13 @@ def delete_extractor(name: str, kg: KGDep, token: EditorDep, expected: IfMatchDe
     return WriteResult.of(result, iri=str(spec.iri)).response()
 
 
-@router.get("/{name}/parameters/{param}", summary="One parameter")
+@router.get("/{name}/parameters/{param}", summary="One parameter", response_model=Parameter)
 def get_parameter(name: str, param: str, kg: KGDep) -> dict[str, Any]:
     return _param_dict(kg.vocabulary().extractor(name).parameter(param))
 
 
-@router.patch("/{name}/parameters/{param}", summary="Change a parameter's default, range, tunability or label")
+@router.patch("/{name}/parameters/{param}", summary="Change a parameter's default, range, tunability or label",
+              response_model=WriteResult, responses=problems(409, 412))
 def patch_parameter(name: str, param: str, body: ParameterPatch, kg: KGDep, token: EditorDep, expected: IfMatchDep) -> Response:
     spec = kg.vocabulary().extractor(name).parameter(param)
     fields = body.model_dump(exclude_unset=True)

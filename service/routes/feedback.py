@@ -21,6 +21,7 @@ router = APIRouter(prefix="/v1", tags=["feedback"])
     description="Stored as a SHACL-checked nfex:Measurement with PROV provenance; the measurement-based "
     "pruning rules count it from this commit on. Open to every client (no token): feedback is data, "
     "not an edit of the rules.",
+    response_model=WriteResult,
     responses=PROBLEM_RESPONSES,
 )
 def feedback(body: FeedbackRequest, kg: KGDep, sessions: SessionsDep) -> JSONResponse:

@@ -11,16 +11,21 @@ from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 from nfex_core.vision.backends import status as backend_status
 
 from ..deps import KGDep, SessionsDep
+from ..schemas import Health, Ready
 
 router = APIRouter(tags=["operations"])
 
 
-@router.get("/healthz", summary="The process is up")
+@router.get("/healthz", summary="The process is up", response_model=Health)
 def healthz() -> dict[str, str]:
     return {"status": "ok"}
 
 
-@router.get("/readyz", summary="The graph is loaded, the rule table compiled; 503 until then")
+@router.get(
+    "/readyz", summary="The graph is loaded, the rule table compiled; 503 until then", response_model=Ready,
+    responses={503: {"description": "Starting, or the warm-up failed (status, detail)",
+                     "content": {"application/json": {"schema": {"$ref": "#/components/schemas/Ready"}}}}},
+)
 def readyz(request: Request, kg: KGDep) -> JSONResponse:
     state = request.app.state
     body: dict[str, Any] = {
@@ -40,7 +45,8 @@ def readyz(request: Request, kg: KGDep) -> JSONResponse:
     return JSONResponse(body, status_code=200 if body["status"] == "ready" else 503)
 
 
-@router.get("/metrics", summary="Prometheus metrics of this process", response_class=Response)
+@router.get("/metrics", summary="Prometheus metrics of this process", response_class=Response,
+            responses={200: {"content": {"text/plain": {"schema": {"type": "string"}}}}})
 def metrics(request: Request, kg: KGDep, sessions: SessionsDep) -> Response:
     m = request.app.state.metrics
     m.sessions.set(len(sessions))

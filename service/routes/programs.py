@@ -19,9 +19,9 @@ from ..deps import EditorDep, IfMatchDep, KGDep
 from ..editing import check_name
 from ..frames import NotImplementedFeature
 from ..images import UnsupportedMediaType
-from ..schemas import PROBLEM_RESPONSES, WriteResult
+from ..schemas import PROBLEM_RESPONSES, Program, ProgramList, WriteResult, problems
 
-router = APIRouter(prefix="/v1/programs", tags=["editing: programs"], responses=PROBLEM_RESPONSES)
+router = APIRouter(prefix="/v1/programs", tags=["editing: programs"], responses={**PROBLEM_RESPONSES, **problems(501)})
 PROGRAM_EXAMPLE = 'adjust ORB.nfeatures by 1.5 when light is dark because "dark frames have fewer corners"\n'
 
 
@@ -39,12 +39,12 @@ def _info(p: Any) -> dict[str, Any]:
     return {"name": p.name, "iri": p.iri, "statements": p.statements, "source": p.source}
 
 
-@router.get("", summary="Every DSL program in the graph")
+@router.get("", summary="Every DSL program in the graph", response_model=ProgramList)
 def list_programs(kg: KGDep) -> dict[str, Any]:
     return {"graph_version": kg.version, "programs": [_info(p) for p in _dsl().programs(kg)]}
 
 
-@router.get("/{name}", summary="One program: its statements as DSL text, read back from the graph")
+@router.get("/{name}", summary="One program: its statements as DSL text, read back from the graph", response_model=Program)
 def get_program(name: str, kg: KGDep) -> dict[str, Any]:
     dsl = _dsl()
     found = [p for p in dsl.programs(kg) if p.name == name]
@@ -58,6 +58,8 @@ def get_program(name: str, kg: KGDep) -> dict[str, Any]:
 @router.put(
     "/{name}",
     summary="Create or replace a program from DSL text (text/plain)",
+    response_model=WriteResult,
+    responses={**{201: {"model": WriteResult, "description": "Created"}}, **problems(409, 412, 415)},
     openapi_extra={"requestBody": {"required": True, "content": {"text/plain": {"schema": {"type": "string"}, "example": PROGRAM_EXAMPLE}}}},
 )
 async def put_program(name: str, request: Request, kg: KGDep, token: EditorDep, expected: IfMatchDep) -> Response:
@@ -77,7 +79,7 @@ async def put_program(name: str, request: Request, kg: KGDep, token: EditorDep, 
     return WriteResult.of(result).response(status=200 if existed else 201)
 
 
-@router.delete("/{name}", summary="Remove a program and its statements")
+@router.delete("/{name}", summary="Remove a program and its statements", response_model=WriteResult, responses=problems(409, 412))
 def delete_program(name: str, kg: KGDep, token: EditorDep, expected: IfMatchDep) -> Response:
     dsl = _dsl()
     if not any(p.name == name for p in dsl.programs(kg)):

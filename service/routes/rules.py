@@ -21,7 +21,7 @@ from nfex_core.rules.pruning import check_rule
 
 from ..deps import EditorDep, IfMatchDep, KGDep
 from ..editing import check_name, describe, replace
-from ..schemas import PROBLEM_RESPONSES, RuleIn, WriteResult
+from ..schemas import PROBLEM_RESPONSES, Rule, RuleIn, RuleList, WriteResult, problems
 
 router = APIRouter(prefix="/v1/rules", tags=["editing: rules"], responses=PROBLEM_RESPONSES)
 
@@ -54,12 +54,12 @@ def _rules(kg: Any, iri: URIRef | None = None) -> list[dict[str, Any]]:
     return out
 
 
-@router.get("", summary="Every SPARQL pruning rule")
+@router.get("", summary="Every SPARQL pruning rule", response_model=RuleList)
 def list_rules(kg: KGDep) -> dict[str, Any]:
     return {"graph_version": kg.version, "rules": _rules(kg)}
 
 
-@router.get("/{rule_id}", summary="One rule")
+@router.get("/{rule_id}", summary="One rule", response_model=Rule)
 def get_rule(rule_id: str, kg: KGDep) -> dict[str, Any]:
     found = _rules(kg, rule_iri(rule_id))
     if not found:
@@ -67,7 +67,8 @@ def get_rule(rule_id: str, kg: KGDep) -> dict[str, Any]:
     return found[0]
 
 
-@router.put("/{rule_id}", summary="Create or replace a rule (checked: parses, selects ?extractor ?reason)")
+@router.put("/{rule_id}", summary="Create or replace a rule (checked: parses, selects ?extractor ?reason)", response_model=WriteResult,
+            responses={**{201: {"model": WriteResult, "description": "Created"}}, **problems(409, 412)})
 async def put_rule(rule_id: str, body: RuleIn, kg: KGDep, token: EditorDep, expected: IfMatchDep) -> Response:
     iri = rule_iri(rule_id)
     query = with_prefixes(body.query)  # stored self-contained: the engine runs it as is
@@ -88,7 +89,7 @@ def _put_rule(kg: Any, iri: URIRef, rule_id: str, body: RuleIn, query: str, auth
     return WriteResult.of(result, iri=str(iri)).response(status=201 if not old else 200)
 
 
-@router.delete("/{rule_id}", summary="Remove a rule")
+@router.delete("/{rule_id}", summary="Remove a rule", response_model=WriteResult, responses=problems(409, 412))
 def delete_rule(rule_id: str, kg: KGDep, token: EditorDep, expected: IfMatchDep) -> Response:
     iri = rule_iri(rule_id)
     old = describe(kg, {iri})

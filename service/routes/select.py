@@ -1,14 +1,12 @@
 """``POST /v1/select``: a frame and/or a context in, the advisor's Selection out."""
 from __future__ import annotations
 
-from typing import Any
-
 from fastapi import APIRouter, Request
 from fastapi.concurrency import run_in_threadpool
 
 from ..deps import AdvisorDep, SettingsDep
 from ..frames import read_select, run_advisor
-from ..schemas import CONTEXT_EXAMPLE, PROBLEM_RESPONSES
+from ..schemas import CONTEXT_EXAMPLE, PROBLEM_RESPONSES, Selection, problems
 
 router = APIRouter(prefix="/v1", tags=["selection"])
 
@@ -40,9 +38,11 @@ SELECT_BODY = {
     description="Send the context alone as JSON, or a frame (multipart `frame`) with an optional `context` "
     "part. Unknown condition values are rejected (422) with the values the graph allows.",
     openapi_extra=SELECT_BODY,
-    responses=PROBLEM_RESPONSES,
+    response_model=Selection,
+    response_model_exclude_unset=True,  # members as_dict() leaves out stay out
+    responses={**PROBLEM_RESPONSES, **problems(413, 415, 501)},
 )
-async def select(request: Request, advisor: AdvisorDep, settings: SettingsDep) -> dict[str, Any]:
+async def select(request: Request, advisor: AdvisorDep, settings: SettingsDep) -> object:
     context, frame = await read_select(request, settings)
     if frame is None and advisor.is_fresh():  # microseconds: a table lookup, not worth a thread hop
         selection = run_advisor(advisor, context, None)

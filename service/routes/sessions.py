@@ -8,19 +8,19 @@ from fastapi.concurrency import run_in_threadpool
 
 from ..deps import AdvisorDep, SessionsDep, SettingsDep
 from ..frames import read_select, run_advisor
-from ..schemas import PROBLEM_RESPONSES, SessionCreate
+from ..schemas import PROBLEM_RESPONSES, Session, SessionCreate, SessionSelection, problems
 
 router = APIRouter(prefix="/v1/sessions", tags=["sessions"])
 
 
-@router.post("", status_code=201, summary="Open a frame stream", responses=PROBLEM_RESPONSES)
+@router.post("", status_code=201, summary="Open a frame stream", response_model=Session, responses={**PROBLEM_RESPONSES, **problems(429)})
 def create_session(body: SessionCreate, sessions: SessionsDep, advisor: AdvisorDep) -> dict[str, Any]:
     context = advisor.snapshot().vocab.check_context(body.context)
     s = sessions.create(context, body.client)
     return s.as_dict(sessions.ttl_s)
 
 
-@router.get("/{session_id}", summary="A stream's state", responses=PROBLEM_RESPONSES)
+@router.get("/{session_id}", summary="A stream's state", response_model=Session, responses=PROBLEM_RESPONSES)
 def get_session(session_id: str, sessions: SessionsDep) -> dict[str, Any]:
     return sessions.get(session_id).as_dict(sessions.ttl_s)
 
@@ -28,7 +28,9 @@ def get_session(session_id: str, sessions: SessionsDep) -> dict[str, Any]:
 @router.post(
     "/{session_id}/frames",
     summary="The next frame of a stream (multipart frame + optional context that overrides the session's)",
-    responses=PROBLEM_RESPONSES,
+    response_model=SessionSelection,
+    response_model_exclude_unset=True,
+    responses={**PROBLEM_RESPONSES, **problems(413, 415, 501)},
     openapi_extra={"requestBody": {"required": True, "content": {"multipart/form-data": {"schema": {"type": "object", "properties": {
         "frame": {"type": "string", "format": "binary"}, "context": {"type": "string"}}}}}}},
 )

@@ -4,11 +4,12 @@ from __future__ import annotations
 from fastapi import APIRouter
 
 from ..deps import KGDep
+from ..schemas import Vocabulary
 
 router = APIRouter(prefix="/v1", tags=["vocabulary"])
 
 
-@router.get("/vocabulary", summary="Condition values, extractors and metrics the graph knows")
+@router.get("/vocabulary", summary="Condition values, extractors and metrics the graph knows", response_model=Vocabulary)
 def vocabulary(kg: KGDep) -> dict[str, object]:
     v = kg.vocabulary()
     return {

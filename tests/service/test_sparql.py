@@ -73,7 +73,6 @@ def test_service_description(service: Service) -> None:
     ({"params": {"query": "DROP ALL"}}, 400),
     ({"params": {"query": ""}}, 400),
     ({"params": {"query": SELECT, "default-graph-uri": "urn:x"}}, 400),
-    ({"params": {"query": SELECT, "format": "yaml"}}, 400),
 ])
 def test_invalid_queries_and_updates_are_400(service: Service, kwargs: dict, status: int) -> None:  # type: ignore[type-arg]
     before = service.version()

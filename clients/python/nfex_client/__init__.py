@@ -10,7 +10,7 @@ OpenCV extractor a selection names.
 """
 from __future__ import annotations
 
-from .client import AsyncNfexClient, NfexClient, Selection, WriteResult
+from .client import AsyncNfexClient, NfexClient
 from .errors import (
     BadRequest,
     Conflict,
@@ -26,10 +26,11 @@ from .errors import (
     UnsupportedMediaType,
 )
 from .opencv import GridSpread, extractor_from_selection, matcher_from_selection, spread_keypoints
+from .schema import Selection, SessionSelection, WriteResult
 
 __all__ = [
-    "AsyncNfexClient", "NfexClient", "Selection", "WriteResult", "extractor_from_selection", "matcher_from_selection",
-    "GridSpread", "spread_keypoints",
+    "AsyncNfexClient", "NfexClient", "Selection", "SessionSelection", "WriteResult", "extractor_from_selection",
+    "matcher_from_selection", "GridSpread", "spread_keypoints",
     "NfexClientError", "BadRequest", "Unauthorized", "Forbidden", "NotFound", "Conflict", "PreconditionFailed",
     "PayloadTooLarge", "UnsupportedMediaType", "Unprocessable", "TooManyRequests", "ServiceUnavailable",
 ]

@@ -5,35 +5,24 @@ from __future__ import annotations
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any, TypedDict
+from typing import Any
 
 import httpx
 
 from .errors import raise_for_problem
+from .schema import (
+    Diff,
+    Health,
+    Ready,
+    Selection,
+    Session,
+    SessionSelection,
+    VersionInfo,
+    Vocabulary,
+    WriteResult,
+)
 
 Context = Mapping[str, str | None]
-
-
-class Selection(TypedDict, total=False):
-    extractor: str
-    params: dict[str, int | float | bool]
-    opencv: dict[str, str]
-    mode: str
-    candidates: list[dict[str, Any]]
-    pruned: list[dict[str, Any]]
-    context: list[dict[str, Any]]
-    weights: dict[str, Any]
-    versions: dict[str, Any]
-    timings_ms: dict[str, float]
-    session: dict[str, Any]
-
-
-class WriteResult(TypedDict, total=False):
-    version: int
-    changed: bool
-    added: int
-    removed: int
-    iri: str | None
 
 
 @dataclass(frozen=True)
@@ -119,10 +108,10 @@ class NfexClient:
         """α, Θ′ and why, for a context and optionally a frame (numpy array, or PNG/JPEG bytes)."""
         return self._do(_Requests.select(context, frame))  # type: ignore[no-any-return]
 
-    def open_session(self, context: Context | None = None, client: str | None = None) -> dict[str, Any]:
+    def open_session(self, context: Context | None = None, client: str | None = None) -> Session:
         return self._json("POST", "/v1/sessions", json={"context": dict(context or {}), "client": client})  # type: ignore[no-any-return]
 
-    def session_frame(self, session_id: str, frame: Any, context: Context | None = None) -> Selection:
+    def session_frame(self, session_id: str, frame: Any, context: Context | None = None) -> SessionSelection:
         return self._do(_Requests.session_frame(session_id, frame, context))  # type: ignore[no-any-return]
 
     def close_session(self, session_id: str) -> None:
@@ -133,26 +122,26 @@ class NfexClient:
         return self._json("POST", "/v1/feedback", json=fields)  # type: ignore[no-any-return]
 
     # -- reading
-    def health(self) -> dict[str, Any]:
+    def health(self) -> Health:
         return self._json("GET", "/healthz")  # type: ignore[no-any-return]
 
-    def ready(self) -> dict[str, Any]:
+    def ready(self) -> Ready:
         return self._json("GET", "/readyz")  # type: ignore[no-any-return]
 
-    def vocabulary(self) -> dict[str, Any]:
+    def vocabulary(self) -> Vocabulary:
         return self._json("GET", "/v1/vocabulary")  # type: ignore[no-any-return]
 
     def sparql(self, query: str, accept: str = "application/sparql-results+json") -> Any:
         """JSON results as a dict; other formats (CSV, Turtle…) as text."""
         return self._do(_Requests.sparql(query, accept))
 
-    def versions(self, limit: int = 100) -> list[dict[str, Any]]:
+    def versions(self, limit: int = 100) -> list[VersionInfo]:
         return self._json("GET", "/v1/graph/versions", params={"limit": limit})["versions"]  # type: ignore[no-any-return]
 
     def graph_version(self) -> int:
         return int(self._json("GET", "/v1/graph")["version"])
 
-    def diff(self, since: int, until: int | None = None) -> dict[str, Any]:
+    def diff(self, since: int, until: int | None = None) -> Diff:
         params = {"since": since, **({"until": until} if until is not None else {})}
         return self._json("GET", "/v1/graph/diff", params=params)  # type: ignore[no-any-return]
 
@@ -210,10 +199,10 @@ class AsyncNfexClient:
     async def select(self, context: Context | None = None, frame: Any = None) -> Selection:
         return await self._do(_Requests.select(context, frame))  # type: ignore[no-any-return]
 
-    async def open_session(self, context: Context | None = None, client: str | None = None) -> dict[str, Any]:
+    async def open_session(self, context: Context | None = None, client: str | None = None) -> Session:
         return await self._do(Call("POST", "/v1/sessions", {"json": {"context": dict(context or {}), "client": client}}))  # type: ignore[no-any-return]
 
-    async def session_frame(self, session_id: str, frame: Any, context: Context | None = None) -> Selection:
+    async def session_frame(self, session_id: str, frame: Any, context: Context | None = None) -> SessionSelection:
         return await self._do(_Requests.session_frame(session_id, frame, context))  # type: ignore[no-any-return]
 
     async def close_session(self, session_id: str) -> None:
@@ -222,10 +211,10 @@ class AsyncNfexClient:
     async def feedback(self, **fields: Any) -> WriteResult:
         return await self._do(Call("POST", "/v1/feedback", {"json": fields}))  # type: ignore[no-any-return]
 
-    async def ready(self) -> dict[str, Any]:
+    async def ready(self) -> Ready:
         return await self._do(Call("GET", "/readyz", {}))  # type: ignore[no-any-return]
 
-    async def vocabulary(self) -> dict[str, Any]:
+    async def vocabulary(self) -> Vocabulary:
         return await self._do(Call("GET", "/v1/vocabulary", {}))  # type: ignore[no-any-return]
 
     async def sparql(self, query: str, accept: str = "application/sparql-results+json") -> Any:

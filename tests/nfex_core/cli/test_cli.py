@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 from tests.conftest import run_cli
@@ -122,3 +124,33 @@ def test_store_in_use_exits_6(cli_env: dict[str, str]) -> None:
         assert p.returncode == 6 and "in use by another process" in p.stderr
     finally:
         kg.close()
+
+
+def test_export_to_a_file_keeps_stdout_clean(cli_env: dict[str, str], tmp_path: Path) -> None:
+    out = tmp_path / "graph.nt"
+    p = run_cli(["kg", "export", "--format", "nt", "-o", str(out)], cli_env)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout == "" and p.stderr.strip() == f"wrote {out}"
+    assert "ORB_scaleFactor" in out.read_text()
+
+
+def test_version(cli_env: dict[str, str]) -> None:
+    from nfex_core import __version__
+
+    p = run_cli(["--version"], cli_env)
+    assert p.returncode == 0 and p.stdout == f"nfex {__version__}\n"
+
+
+def test_shell_completion(cli_env: dict[str, str]) -> None:
+    # as a user runs it from bash (typer detects the shell from the parent process; `; exit` keeps bash
+    # from exec-ing the command in its place)
+    script = subprocess.run(["bash", "-c", '"$0" -m nfex_core.cli.main --show-completion; exit $?', sys.executable],
+                            env=cli_env, capture_output=True, text=True, timeout=120)
+    assert script.returncode == 0, script.stderr
+    assert "_nfex_completion" in script.stdout and "complete " in script.stdout
+    # what bash asks when the user presses TAB after `nfex kg ex`
+    env = dict(cli_env, _NFEX_COMPLETE="complete_bash", COMP_WORDS="nfex kg ex", COMP_CWORD="2")
+    p = run_cli([], env)
+    assert p.returncode == 0 and p.stdout.split() == ["export"]
+    env.update(COMP_WORDS="nfex program ", COMP_CWORD="2")
+    assert {"apply", "check", "list", "remove", "show"} <= set(run_cli([], env).stdout.split())

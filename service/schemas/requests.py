@@ -1,12 +1,9 @@
-"""Pydantic models at the HTTP edge: requests, responses and their OpenAPI examples."""
+"""Request bodies at the HTTP edge, with their OpenAPI examples."""
 from __future__ import annotations
 
 from typing import Any
 
-from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ConfigDict, Field
-
-from nfex_core.kg import CommitResult
 
 CONTEXT_EXAMPLE = {"agent": "car", "motion": "fast", "scene": "outdoor", "light": "bright"}
 
@@ -73,21 +70,6 @@ class FeedbackRequest(BaseModel):
     height: int | None = Field(None, ge=1)
 
 
-class WriteResult(BaseModel):
-    version: int = Field(..., description="The graph version at head after the write (the new ETag).")
-    changed: bool
-    added: int = 0
-    removed: int = 0
-    iri: str | None = None
-
-    @classmethod
-    def of(cls, result: CommitResult, iri: str | None = None) -> WriteResult:
-        return cls(version=result.version, changed=result.changed, added=result.added, removed=result.removed, iri=iri)
-
-    def response(self, status: int = 200) -> JSONResponse:
-        return JSONResponse(self.model_dump(), status_code=status, headers={"ETag": f'"{self.version}"'})
-
-
 class ConditionValueIn(BaseModel):
     model_config = ConfigDict(extra="forbid", json_schema_extra={"examples": [{"name": "dusk", "label": "dusk", "comment": "Low sun."}]})
 
@@ -131,29 +113,3 @@ class RollbackIn(BaseModel):
     model_config = ConfigDict(extra="forbid", json_schema_extra={"examples": [{"to": 1}]})
 
     to: int = Field(..., ge=0)
-
-
-class ProblemDoc(BaseModel):
-    """RFC 9457 problem details; extra members (allowed, violations, limit…) depend on the type."""
-
-    model_config = ConfigDict(extra="allow")
-
-    type: str
-    title: str
-    status: int
-    detail: str
-
-
-PROBLEM_RESPONSES: dict[int | str, dict[str, Any]] = {
-    code: {"model": ProblemDoc, "content": {"application/problem+json": {}}, "description": text}
-    for code, text in [
-        (400, "Bad input"),
-        (401, "No or invalid bearer token"),
-        (404, "Not found"),
-        (412, "If-Match names a graph version that is no longer the head"),
-        (413, "Body, frame or pixel count over the limit"),
-        (415, "Unsupported media type"),
-        (422, "Unknown names (with the allowed values) or a SHACL violation (with the report)"),
-        (503, "Store unavailable or a query limit exceeded"),
-    ]
-}

@@ -1,0 +1,179 @@
+"""The Selection as the service returns it: the one schema of ``POST /v1/select`` and of a stream's frames.
+
+These models describe exactly what ``nfex_core.advisor.selection.Selection.as_dict()`` produces; the
+routes use them as ``response_model`` (FastAPI validates and serialises every answer through them, unset
+optional members left out, so the wire format is ``as_dict()``'s), the OpenAPI document publishes them,
+and the Python client's types are generated from that document (``clients/python/generate_types.py``,
+checked by ``tests/clients/test_client_types.py``).
+
+**Extending the Selection** (e.g. the verification stage's "tried + what each showed") is one change
+here: add the member to ``Selection`` (with its own model below if it is an object), then regenerate the
+client's types with ``python clients/python/generate_types.py``. Every member is ``extra="forbid"``: a key
+``as_dict()`` emits that this schema lacks fails every service test that selects, so the two cannot drift.
+"""
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict, Field
+
+Value = int | float | bool  # a parameter value, as nfex_core.kg.vocab.Value
+
+
+class Out(BaseModel):
+    """A response body: exactly these members, nothing else."""
+
+    model_config = ConfigDict(extra="forbid", populate_by_name=True)
+
+
+class Citation(Out):
+    """A rule (SPARQL rule, DSL statement, context shape, budget, model, measurement) that shaped a decision."""
+
+    rule: str = Field(..., description="The rule's IRI.")
+    label: str
+    reason: str
+    kind: str = Field(..., description="sparql | prune | adjust | weight | prefer | require | shape | budget | measured")
+    source: str | None = Field(None, description="The file or program the rule came from.")
+
+
+class Adjustment(Out):
+    """One parameter changed from the base Θ, and why: Θ′ = Θ·Πf_kj(e_j), clamped to the graph's range."""
+
+    parameter: str
+    from_: Value = Field(..., alias="from")
+    to: Value
+    factor: float
+    clamped: bool
+    because: list[Citation]
+
+
+class MeasuredConfiguration(Out):
+    """The measured configuration Θ′ was taken from."""
+
+    iri: str
+    mean_ate_m: float
+    windows: int
+    because: Citation | None
+
+
+class Evidence(Out):
+    """What the graph has measured for a candidate under the context, and how it was scored."""
+
+    mean_ate_m: float | None = Field(None, description="Mean ATE measured under the context's known conditions, metres.")
+    windows: int | None = None
+    extraction_ms: float | None = None
+    params_source: str | None = Field(None, description="Which source of the Θ′ chain set Θ′: measured | paramnet | rules.")
+    configuration: MeasuredConfiguration | None = None
+    expected_ms: float | None = Field(None, description="The cost model's extraction time at this frame size and compute class.")
+    cost_source: str | None = None
+    f_metrics: float | None = Field(None, description="F_metrics = Σ h_x(E)·m_x on the frame.")
+    measured_accuracy: float | None = Field(None, description="A(α): best mean ATE / α's mean ATE under E.")
+    not_scored: str | None = None
+    score_without_net: float | None = None
+
+
+class Candidate(Out):
+    extractor: str
+    score: float | None
+    bonus: float
+    metrics: dict[str, float] = Field(..., description="m1–m7 on the frame, each in [0, 1]; empty without a frame.")
+    params: dict[str, Value] = Field(..., description="Θ′ under OpenCV's argument names.")
+    adjustments: list[Adjustment]
+    keypoints: int | None
+    extraction_ms: float | None
+    evidence: Evidence
+
+
+class Pruned(Out):
+    extractor: str
+    because: list[Citation]
+
+
+class ContextEntry(Out):
+    dimension: str
+    value: str | None
+    source: str = Field(..., description="given | estimated | unknown")
+    confidence: float | None = None
+    evidence: str | None = Field(None, description="What an estimate was based on.")
+
+
+class Weight(Out):
+    """h_x(E): a quality metric's weight under the context."""
+
+    value: float
+    because: list[Citation]
+
+
+class Budget(Out):
+    ms: float
+    source: str = Field(..., description="given | agent default (…)")
+    compute: str
+    factor: float
+    width: int
+    height: int
+    size_source: str = Field(..., description="frame | given | assumed: …")
+
+
+class ModelInfo(Out):
+    """Which neural model served the request, or why none did."""
+
+    mode: str = Field(..., description="NFEX_NEURAL: symbolic | paramnet | selectornet | both")
+    used: str = Field(..., description="What was used: symbolic, paramnet, selectornet or paramnet+selectornet.")
+    fallback: str | None = None
+    name: str | None = None
+    version: str | None = None
+    data_sha256: str | None = None
+    git_commit: str | None = None
+    skipped: dict[str, str] | None = Field(None, description="Networks left out because validation did not beat a baseline.")
+    load_ms: float | None = None
+    declined: str | None = None
+
+
+class Versions(Out):
+    graph: int
+    programs: dict[str, int] = Field(..., description="DSL program → statements in force.")
+    rules: int
+    model: ModelInfo
+
+
+class Grid(Out):
+    cell_size: int = Field(..., description="Square cell side in pixels over which detections are spread.")
+    keep: int = Field(..., description="How many keypoints to keep after spreading (Θ′'s feature count).")
+
+
+class OpenCV(Out):
+    """How a client builds α with Θ′ itself (``ExtractorSpec.opencv``)."""
+
+    constructor: str = Field(..., description="e.g. ORB_create: cv2.<constructor>(**args); empty for a learned model.")
+    norm: str = Field(..., description="The matcher's norm, e.g. NORM_HAMMING.")
+    args: dict[str, Value] = Field(default_factory=dict, description="The constructor's arguments: Θ′ without grid "
+                                   "settings, the feature count oversampled under a grid.")
+    grid: Grid | None = Field(None, description="Spread detections over square cells before computing descriptors "
+                              "(ORB_GRID), or null.")
+
+
+class Selection(Out):
+    """α*, Θ′ and why."""
+
+    extractor: str = Field(..., description="α*: the extractor to run.")
+    params: dict[str, Value] = Field(..., description="Θ′ under OpenCV's argument names: cv2.<constructor>(**params).")
+    opencv: OpenCV
+    mode: str = Field(..., description="prior (no frame) | metrics (F_metrics on the frame) | selectornet")
+    candidates: list[Candidate] = Field(..., description="C(E), best first.")
+    pruned: list[Pruned]
+    context: list[ContextEntry]
+    weights: dict[str, Weight]
+    budget: Budget | None
+    warnings: list[str]
+    versions: Versions
+    timings_ms: dict[str, float]
+
+
+class StreamPosition(Out):
+    id: str
+    frame: int
+    temporal: bool = Field(..., description="Whether temporal metrics and motion had a previous frame.")
+
+
+class SessionSelection(Selection):
+    """A stream's frame: the Selection and where the stream stands."""
+
+    session: StreamPosition

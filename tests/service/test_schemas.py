@@ -1,0 +1,55 @@
+"""service/schemas/selection.py describes exactly what ``Selection.as_dict()`` produces: real selections
+(no frame, a frame, a stream's second frame; with a budget and without) validate against it and
+serialise back to the same dict; a member the schema lacks is refused rather than passed through."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import cv2
+import pydantic
+import pytest
+
+from nfex_core.advisor import Advisor
+from nfex_core.kg import KnowledgeGraph
+from service.schemas import Selection
+
+
+def roundtrip(out: dict[str, Any]) -> dict[str, Any]:
+    return Selection.model_validate(out).model_dump(mode="json", by_alias=True, exclude_unset=True)
+
+
+@pytest.fixture(scope="module")
+def frames(data_dir: Path) -> list[Any]:
+    folder = data_dir / "kitti" / "sequences" / "01" / "image_0"
+    images = [cv2.imread(str(folder / f"{i:06d}.png"), cv2.IMREAD_GRAYSCALE) for i in (0, 1)]
+    if any(i is None for i in images):
+        pytest.skip(f"{folder} lacks frames 0 and 1")
+    return images
+
+
+def test_selections_roundtrip_through_the_schema(kg: KnowledgeGraph, frames: list[Any]) -> None:
+    advisor = Advisor(kg)
+    first = advisor.select({"agent": "car"}, frames[0])
+    second = advisor.select({"agent": "car"}, frames[1], first.state)
+    selections = [
+        advisor.select({"agent": "car", "motion": "fast"}),           # prior, no budget
+        advisor.select({"agent": "drone", "light": "dark"}),          # prior, the drone's default budget
+        advisor.select({"agent": "car"}, budget_ms=5.0),              # a budget that fits Θ′
+        first, second,                                                # scored on frames, temporal metrics
+    ]
+    seen: set[str] = set()
+    for sel in selections:
+        out = sel.as_dict()
+        assert roundtrip(out) == out
+        seen |= {k for c in out["candidates"] for k in c["evidence"]} | {"budget" if out["budget"] else ""}
+    assert {"f_metrics", "measured_accuracy", "budget"} <= seen  # the optional members were exercised
+
+
+def test_a_member_the_schema_lacks_is_refused(kg: KnowledgeGraph) -> None:
+    out = Advisor(kg).select({"agent": "car"}).as_dict()
+    with pytest.raises(pydantic.ValidationError):
+        Selection.model_validate({**out, "verification": []})
+    out["candidates"][0]["evidence"]["surprise"] = 1
+    with pytest.raises(pydantic.ValidationError):
+        Selection.model_validate(out)
