@@ -22,10 +22,13 @@ from .routes import (
     feedback,
     health,
     programs,
+    queries,
     rules,
+    samples,
     select,
     sessions,
     sparql,
+    ui,
     versions,
     vocabulary,
 )
@@ -84,7 +87,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app = FastAPI(title="nFEX", version=__version__, summary="Which feature extractor to run, with which parameters, and why.",
                   description=DESCRIPTION, lifespan=lifespan)
     problems.install(app)
-    for module in (health, vocabulary, select, sessions, feedback, sparql, extractors, conditions, rules, programs, versions):
+    for module in (health, vocabulary, select, sessions, feedback, sparql, extractors, conditions, rules, programs, versions,
+                   queries, samples):
         app.include_router(module.router)
+    ui.mount(app)
     app.add_middleware(ServiceMiddleware, metrics=metrics, max_body_bytes=settings.max_body_bytes)
     return app
