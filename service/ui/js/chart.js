@@ -15,7 +15,7 @@ function s(tag, attrs = {}, text) {
 function niceMax(x) {
   if (!(x > 0)) return 1;
   const p = 10 ** Math.floor(Math.log10(x));
-  for (const m of [1, 2, 2.5, 5, 10]) if (m * p >= x) return m * p;
+  for (const m of [1, 2, 5, 10]) if (m * p >= x) return m * p;
   return 10 * p;
 }
 
@@ -60,19 +60,20 @@ export function groupedBars(groups, series, value, { title = "", yLabel = "", wi
   const max = niceMax(Math.max(0, ...values));
   const plotH = height - top - bottom, plotW = width - left - right;
   const gw = plotW / Math.max(1, groups.length);
-  const bw = Math.max(3, (gw - 10) / Math.max(1, series.length));
+  const bw = Math.min(36, Math.max(3, (gw - 10) / Math.max(1, series.length)));
+  const pad = (gw - bw * series.length) / 2;
   const y = (v) => top + plotH - (v / max) * plotH;
   const svg = s("svg", { class: "chart", width, height, viewBox: `0 0 ${width} ${height}`, role: "img", "aria-label": title });
   svg.append(s("text", { x: 4, y: 16, "font-weight": "600" }, title));
   if (yLabel) svg.append(s("text", { x: width - 4, y: 16, "text-anchor": "end", fill: "#66707a" }, yLabel));
-  for (let i = 0; i <= 4; i++) {
-    const v = (max * i) / 4;
+  for (let i = 0; i <= 5; i++) {
+    const v = (max * i) / 5;
     svg.append(s("line", { class: "gridline", x1: left, x2: width - right, y1: y(v), y2: y(v) }));
     svg.append(s("text", { x: left - 4, y: y(v) + 4, "text-anchor": "end", fill: "#66707a" }, fmt(v, 2)));
   }
   svg.append(s("line", { class: "axis", x1: left, x2: width - right, y1: y(0), y2: y(0) }));
   groups.forEach((g, gi) => {
-    const gx = left + gi * gw + 5;
+    const gx = left + gi * gw + pad;
     series.forEach((sr, si) => {
       const v = value(g, sr);
       if (!Number.isFinite(v)) return;

@@ -66,10 +66,12 @@ export function iriLink(iri, label) {
   return h("a", { href: "#/browse?iri=" + encodeURIComponent(iri), title: iri, class: "iri" }, label || short(iri));
 }
 
-export function table(headers, rows, { numeric = [] } = {}) {
-  return h("table", { class: "grid" },
+/** A scrolling table of ``data``: cells(item) gives a row's cells; columns in ``numeric`` align right. */
+export function rowsTable(headers, data, cells, numeric = []) {
+  if (!data.length) return h("p", { class: "muted" }, "none");
+  return h("div", { class: "scroll" }, h("table", { class: "grid" },
     h("thead", {}, h("tr", {}, headers.map((x) => h("th", {}, x)))),
-    h("tbody", {}, rows.map((r) => h("tr", {}, r.map((c, i) => h("td", { class: numeric.includes(i) ? "num" : null }, c))))));
+    h("tbody", {}, data.map((r) => h("tr", {}, cells(r).map((c, i) => h("td", { class: numeric.includes(i) ? "num" : null }, c)))))));
 }
 
 export function contextText(ctx) {

@@ -101,7 +101,8 @@ export function offsetOf(text, line, column) {
  * complete(textBeforeCaret) → {from, items: [{label, insert}]} | null (``from``: offset where the replaced word starts)
  */
 export function codeEditor({ value = "", language = "sparql", rows = 12, complete = null, onChange = null, onSubmit = null, label = "code" }) {
-  const gutter = h("div", { class: "gutter", "aria-hidden": "true" });
+  const lineNumbers = h("div", { class: "numbers" });
+  const gutter = h("div", { class: "gutter", "aria-hidden": "true" }, lineNumbers);
   const pre = h("pre", { "aria-hidden": "true" });
   const ta = h("textarea", { spellcheck: "false", autocapitalize: "off", autocomplete: "off", rows: String(rows), "aria-label": label, wrap: "off" });
   const popup = h("div", { class: "complete", hidden: true, role: "listbox" });
@@ -114,14 +115,15 @@ export function codeEditor({ value = "", language = "sparql", rows = 12, complet
     const at = error ? offsetOf(text, error.line, error.column) : null;
     pre.innerHTML = highlight(text, language, at);
     const n = text.split("\n").length;
-    gutter.replaceChildren(...Array.from({ length: n }, (_, i) =>
+    lineNumbers.replaceChildren(...Array.from({ length: n }, (_, i) =>
       h("span", { class: error && error.line === i + 1 ? "err" : null }, String(i + 1))));
+    gutter.style.width = `${String(n).length * 8 + 22}px`;
     sync();
   }
   function sync() {
     pre.scrollTop = ta.scrollTop;
     pre.scrollLeft = ta.scrollLeft;
-    gutter.scrollTop = ta.scrollTop;
+    lineNumbers.style.transform = `translateY(${-ta.scrollTop}px)`;
   }
   function closePopup() { popup.hidden = true; items = []; }
   function charWidth() {

@@ -10,6 +10,7 @@ from nfex_core.config import REPO_ROOT
 from nfex_core.errors import NotFound, ValidationFailed
 from nfex_core.kg import KnowledgeGraph
 from nfex_core.kg.changes import ChangeSet, graph_triples
+from nfex_core.kg.vocab import Vocabulary
 from nfex_core.namespaces import NFEX
 from nfex_core.rules.dsl import programs
 from nfex_core.rules.dsl.parser import parse_file
@@ -98,3 +99,17 @@ def test_seeding_stops_on_a_program_with_an_unknown_name(tmp_path: Path) -> None
     s = Settings.from_env()
     with pytest.raises(UnknownName, match=r"typo.nfex:1:25: unknown value of light 'dim'; known: bright, dark"):
         seed_graph(Settings(s.store, home, s.data, s.models))
+
+
+def test_check_text_lists_every_problem_without_raising(vocab: Vocabulary) -> None:
+    from nfex_core.errors import ParseError, UnknownName
+    from nfex_core.rules.dsl.programs import check_text
+
+    program, found = check_text("prune ORB when light is drak\nadjust ORB.nfeaturs by 2\n", vocab, name="t")
+    assert program is not None and [type(e) for e in found] == [UnknownName, UnknownName]
+    assert [(e.extra["line"], e.extra["column"]) for e in found] == [(1, 25), (2, 12)]  # at the value, at the parameter after "ORB."
+    assert "dark" in found[0].extra["allowed"]
+    program, found = check_text("prune ORB when light\n", vocab, name="t")
+    assert program is None and len(found) == 1 and isinstance(found[0], ParseError) and found[0].line == 2  # at the end
+    program, found = check_text("prune ORB when light is dark\n", vocab, name="t")
+    assert program is not None and found == [] and len(program.statements) == 1
