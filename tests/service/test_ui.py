@@ -42,6 +42,7 @@ def browser() -> Iterator[Any]:
     exe = chromium()
     if exe is None:
         pytest.skip("Debian's chromium is not installed here (apt-get install chromium; `make test` installs it)")
+    sync_api.expect.set_options(timeout=30_000)  # a view after a commit waits for the rule table's recompilation
     with sync_api.sync_playwright() as p:
         b = p.chromium.launch(executable_path=exe, args=CHROMIUM_FLAGS)
         yield b
@@ -113,6 +114,7 @@ def test_share_link_renders_a_table_whose_iris_open_the_browser(page: Any, ui_se
 
 def test_completion_and_the_numeric_chart(page: Any, ui_service: Service) -> None:
     page.goto(f"{ui_service.url}/ui/#/sparql")
+    expect(page.locator("#view-sparql[data-names=ready]")).to_have_count(1)  # the names to complete have arrived
     editor = page.locator("#view-sparql textarea")
     editor.fill("")
     editor.press_sequentially("SELECT ?x ?w WHERE { ?x a nfex:FeatureExtr")

@@ -55,6 +55,7 @@ export function expand(name) {
 
 export function fmt(x, digits = 3) {
   if (x === null || x === undefined || x === "") return "";
+  if (typeof x === "boolean") return String(x);
   const n = Number(x);
   if (!Number.isFinite(n)) return String(x);
   if (Number.isInteger(n)) return String(n);

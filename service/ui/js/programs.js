@@ -118,7 +118,8 @@ export async function view(root, params) {
     if (!(e instanceof Problem)) return h("div", { class: "error" }, String(e));
     const d = e.doc;
     if (d.line) editor.markError(d.line, d.column);
-    const extra = d.violations ? d.violations.map((v) => `\n${v.focus_node}: ${v.message}`) : (d.problems || []).map((x) => `\n${x}`);
+    const more = (d.problems || []).length > 1 ? d.problems.slice(1) : [];
+    const extra = d.violations ? d.violations.map((v) => `\n${v.focus_node}: ${v.message}`) : more.map((x) => `\n${x}`);
     return h("div", { class: "error", id: "apply-error", role: "alert" }, h("b", {}, `${d.title || "Error"} (${e.status}): `), d.detail, extra, " — nothing was applied.");
   }
 

@@ -75,7 +75,7 @@ function download(name, type, text) {
 
 export async function view(root, params) {
   const known = {};
-  names().then((n) => Object.assign(known, n));
+  names().then((n) => { Object.assign(known, n); root.dataset.names = "ready"; });
   const out = h("div", { id: "sparql-out" });
   const editor = codeEditor({
     value: params.get("query") || EXAMPLES[0].query, language: "sparql", rows: 10, label: "SPARQL query",

@@ -2,12 +2,14 @@
 
 import { Problem, api } from "./api.js";
 import { refreshVersion } from "./app.js";
-import { clear, h } from "./dom.js";
+import { clear, h, short } from "./dom.js";
+
+const shortTriple = (t) => t.replace(/<([^<>\s]+)>/g, (m, iri) => (short(iri) === iri ? m : short(iri)));
 
 function triples(change) {
   const lines = [
-    ...change.removed.map((t) => h("div", { class: "diff-del" }, "− " + t)),
-    ...change.added.map((t) => h("div", { class: "diff-add" }, "+ " + t)),
+    ...change.removed.map((t) => h("div", { class: "diff-del" }, "− " + shortTriple(t))),
+    ...change.added.map((t) => h("div", { class: "diff-add" }, "+ " + shortTriple(t))),
   ];
   return h("div", {},
     h("p", {}, h("span", { class: "diff-add" }, `+${change.added_count} added`), " · ", h("span", { class: "diff-del" }, `−${change.removed_count} removed`),
