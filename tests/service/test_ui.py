@@ -192,17 +192,18 @@ def test_a_program_with_an_unknown_name_shows_the_error_and_applies_nothing(page
 
 def test_a_valid_program_previews_applies_and_its_version_is_listed(page: Any, ui_service: Service) -> None:
     text = 'program ui_test\nprune SIFT when light is dark because "workbench test: SIFT too slow here"\n'
-    expected = httpx.post(ui_service.url + "/v1/programs/ui_test/preview", content=text, headers={"content-type": "text/plain"}, timeout=120).json()
-    assert expected["changed"] > 0
     use_token(page, ui_service.url)
     before = ui_service.version()
     page.goto(ui_service.url + "/ui/#/programs?name=ui_test")
     page.locator("#view-programs textarea").fill(text)
     expect(page.locator("#check-status")).to_contain_text("valid: 1 statement")
     page.click("#preview-btn")
-    expect(page.locator("#preview")).to_contain_text(f"{expected['changed']} of {expected['contexts']} contexts change", timeout=120_000)
-    rows = min(expected["changed"], 300)
-    expect(page.locator("#preview-table tbody tr")).to_have_count(rows)
+    summary = page.locator("#preview p").first
+    expect(summary).to_contain_text("contexts change", timeout=120_000)
+    changed, contexts = map(int, re.match(r"(\d+) of (\d+) contexts change", summary.inner_text()).groups())  # type: ignore[union-attr]
+    assert 0 < changed < contexts  # SIFT is α* in some dark contexts (the API's own count: test_workbench.py)
+    expect(page.locator("#preview-table tbody tr")).to_have_count(min(changed, 300))
+    expect(page.locator("#preview-table tbody tr").first.locator("td").nth(1)).to_have_text("SIFT")
     shot(page, "program-preview")
     assert ui_service.version() == before  # a preview writes nothing
     page.click("#apply-btn")
