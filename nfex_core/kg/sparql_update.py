@@ -16,14 +16,14 @@ from .changes import ChangeSet
 from .terms import from_oxigraph
 
 if TYPE_CHECKING:
-    from .store import KnowledgeGraph
+    from .backends import Backend
 
 FORBIDDEN = ("LOAD", "CLEAR", "DROP", "CREATE", "ADD", "MOVE", "COPY")
 
 
-def change_of_update(kg: KnowledgeGraph, update: str) -> ChangeSet:
+def change_of_update(backend: Backend, update: str) -> ChangeSet:
     scratch = ox.Store()
-    data = kg.backend.construct("CONSTRUCT { ?s ?p ?o } WHERE { ?s ?p ?o }")
+    data = backend.construct("CONSTRUCT { ?s ?p ?o } WHERE { ?s ?p ?o }")
     scratch.load(data.serialize(format="nt").encode("utf-8"), format=ox.RdfFormat.N_TRIPLES)
     before = {(q.subject, q.predicate, q.object) for q in scratch}
     try:

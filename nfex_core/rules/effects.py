@@ -11,7 +11,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from .engine import Citation, RuleTable
+from .engine import RuleTable
+from .types import Citation
 
 
 @dataclass

@@ -6,7 +6,7 @@ from datetime import UTC, datetime
 from fastapi import APIRouter
 from fastapi.responses import JSONResponse
 
-from nfex_core.feedback import Feedback, measurement_graph, run_iri
+from nfex_core.feedback import Feedback, feedback_run_iri, measurement_graph
 
 from ..deps import KGDep, SessionsDep
 from ..schemas import PROBLEM_RESPONSES, FeedbackRequest, WriteResult
@@ -34,7 +34,7 @@ def feedback(body: FeedbackRequest, kg: KGDep, sessions: SessionsDep) -> JSONRes
                      "client": client, "session": body.session_id})
     vocab = kg.vocabulary()
     now = datetime.now(UTC)
-    run_exists = kg.ask(f"ASK {{ <{run_iri(fb, now)}> a nfex:Run }}")
+    run_exists = kg.ask(f"ASK {{ <{feedback_run_iri(fb, now)}> a nfex:Run }}")
     graph, iri = measurement_graph(vocab, fb, run_exists=run_exists, now=now)
     result = kg.add(graph, author=f"feedback:{client or 'anonymous'}", message=f"feedback: {fb.extractor} on {fb.sequence}")
     return WriteResult.of(result, iri=str(iri)).response(status=201)

@@ -13,7 +13,7 @@ WRITER = r"""
 import os, sys
 from rdflib import Literal, URIRef
 from nfex_core.kg import ChangeSet, KnowledgeGraph
-kg = KnowledgeGraph.open(sys.argv[1], seed=False)
+kg = KnowledgeGraph.open(sys.argv[1])
 for round in range(1000):
     change = ChangeSet.adding(
         (URIRef(f"urn:crash:{os.getpid()}:{round}:{i}"), URIRef("urn:crash:p"), Literal(i)) for i in range(int(sys.argv[2]))
@@ -34,7 +34,7 @@ def test_killed_writer_leaves_a_consistent_store(store_path: Path, tmp_path: Pat
         time.sleep(delay)
         proc.send_signal(signal.SIGKILL)
         proc.wait()
-        kg = KnowledgeGraph.open(str(store_path), seed=False)
+        kg = KnowledgeGraph.open(str(store_path))
         head = kg.version
         # every version up to the head is complete, nothing of a later one is there
         rounds = kg.select("SELECT (COUNT(?s) AS ?n) WHERE { ?s <urn:crash:p> ?o }").rows[0]["n"].toPython()
