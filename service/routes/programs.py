@@ -16,7 +16,7 @@ from fastapi.concurrency import run_in_threadpool
 from nfex_core.errors import NotFound, QueryLimitExceeded
 
 from ..bodies import media_type, utf8_text
-from ..deps import AdvisorDep, EditorDep, IfMatchDep, KGDep
+from ..deps import EditorDep, IfMatchDep, KGDep
 from ..editing import check_name
 from ..frames import NotImplementedFeature
 from ..images import UnsupportedMediaType
@@ -84,7 +84,7 @@ async def check_program(name: str, request: Request, kg: KGDep) -> dict[str, Any
 
 @router.post("/{name}/preview", summary="What applying DSL text would change in the decisions (contexts whose α or Θ′ change); nothing is written",
              openapi_extra=TEXT_BODY)
-async def preview_program(name: str, request: Request, kg: KGDep, advisor: AdvisorDep) -> dict[str, Any]:
+async def preview_program(name: str, request: Request, kg: KGDep) -> dict[str, Any]:
     check_name("program", name)
     text = await _program_text(request)
     dsl = _dsl()
@@ -96,7 +96,7 @@ async def preview_program(name: str, request: Request, kg: KGDep, advisor: Advis
 
         try:
             _, graph = dsl.compile_text(text, kg.vocabulary(), name=name, source=f"api:{name}")
-            return {"name": name, **impact(kg, dsl.change_of(kg, graph, name), before=advisor).as_dict(limit=PREVIEW_LIMIT)}
+            return {"name": name, **impact(kg, dsl.change_of(kg, graph, name)).as_dict(limit=PREVIEW_LIMIT)}
         finally:
             _previews.release()
 
