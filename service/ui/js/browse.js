@@ -125,9 +125,12 @@ async function ruleSection(iri, types) {
 }
 
 async function home(root) {
-  const [xs, conds, fx, progs] = await Promise.all([api("/v1/extractors"), api("/v1/conditions"), effects(), api("/v1/programs")]);
-  const byKind = {};
+  const [xs, conds, fx, progs, sparqlRules] = await Promise.all([api("/v1/extractors"), api("/v1/conditions"), effects(), api("/v1/programs"), api("/v1/rules")]);
+  const byKind = { sparql: [] };
   for (const r of fx.rules) (byKind[r.kind] ??= []).push(r);
+  for (const r of sparqlRules.rules) {  // a SPARQL rule that prunes nowhere at this version is listed too
+    if (!fx.rules.some((x) => x.iri === r.iri)) byKind.sparql.push({ iri: r.iri, label: r.label + (r.enabled ? "" : " (disabled)"), effects: [] });
+  }
   const kinds = { sparql: "SPARQL pruning rules", shape: "Context shapes", require: "require statements", prune: "prune statements", adjust: "adjust statements",
     weight: "weight statements", prefer: "prefer statements", budget: "budget rules" };
   const jump = h("input", { type: "text", placeholder: "an IRI or nfex:Name", "aria-label": "IRI", style: "width:340px" });
@@ -136,7 +139,7 @@ async function home(root) {
     h("form", { class: "toolbar", onsubmit: (e) => { e.preventDefault(); location.hash = `#/browse?iri=${encodeURIComponent(expand(jump.value.trim()))}`; } }, jump, h("button", {}, "Open")),
     h("h2", {}, "Extractors"),
     h("div", { class: "cards", id: "extractor-cards" }, xs.extractors.map((x) => h("div", { class: "panel" },
-      h("h3", {}, iriLink(x.iri, x.name), h("span", { class: "muted small" }, `  ${x.label || ""}`)),
+      h("h3", {}, iriLink(x.iri, x.name), x.label && x.label !== x.name ? h("span", { class: "muted small" }, `  ${x.label}`) : null),
       h("div", { class: "small muted" }, `${x.constructor} · ${x.descriptor_kind} · ${x.norm}`),
       h("div", { class: "small" }, Object.keys(x.parameters).join(", "))))),
     h("h2", {}, "Conditions"),
@@ -148,7 +151,8 @@ async function home(root) {
       progs.programs.map((p, i) => [i ? ", " : "", h("a", { href: `#/programs?name=${encodeURIComponent(p.name)}` }, p.name)])),
     Object.entries(byKind).map(([k, list]) => h("div", { class: "panel" }, h("h3", {}, kinds[k] || k, h("span", { class: "muted small" }, ` (${list.length})`)),
       rowsTable(["rule", "effects"], list, (r) => [iriLink(r.iri, r.label),
-        h("span", { class: "small" }, r.effects.slice(0, 3).map((e) => `${e.what} in ${e.contexts}`).join("; ") + (r.effects.length > 3 ? "; …" : ""))]))));
+        r.effects.length ? h("span", { class: "small" }, r.effects.slice(0, 3).map((e) => `${e.what} in ${e.contexts}`).join("; ") + (r.effects.length > 3 ? "; …" : ""))
+          : h("span", { class: "small muted" }, "prunes nothing in any context at this graph version")]))));
   if (new URLSearchParams(location.hash.split("?")[1] || "").get("section") === "rules") document.getElementById("rules").scrollIntoView();
 }
 
