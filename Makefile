@@ -16,7 +16,7 @@ CPP_BUILD ?= clients/cpp/build
 CPP_DEBS  := cmake g++ make pkg-config libcurl4-openssl-dev nlohmann-json3-dev libopencv-dev
 SUDO      := $(if $(filter 0,$(shell id -u)),,sudo)
 
-.PHONY: install install-dev learned sparql-servers serve test docs cpp bench lint typecheck clean
+.PHONY: install install-dev learned sparql-servers browser ui-screenshots serve test docs cpp bench lint typecheck clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -45,7 +45,7 @@ sparql-servers:
 	     virtuoso-opensource-7-bin >/dev/null; } \
 	  || echo "virtuoso-t not installed: the Virtuoso store tests will skip (apt-get install virtuoso-opensource-7-bin)"
 
-test: install-dev sparql-servers
+test: install-dev sparql-servers browser
 	$(BIN)/python -m pytest -n 2 $(PYTEST_ARGS)
 
 docs: $(BIN)/python
@@ -61,6 +61,20 @@ cpp:
 	fi
 	cmake -S clients/cpp -B $(CPP_BUILD) -DCMAKE_BUILD_TYPE=Release
 	cmake --build $(CPP_BUILD) -j $$(nproc 2>/dev/null || echo 2)
+
+# Debian's chromium for the workbench's browser tests (tests/service/test_ui.py, driven by Playwright without a
+# browser download). Installed only where it is missing and apt-get can run as root; elsewhere those tests skip.
+browser:
+	@if ! command -v chromium >/dev/null 2>&1 && [ ! -x /usr/bin/chromium ]; then \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+	    echo "installing chromium for the browser tests"; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends chromium >/dev/null; \
+	  else echo "chromium is missing and cannot be installed here (needs root and apt-get): the browser tests will skip"; fi; \
+	fi
+
+# The screenshots in docs/ui.md, taken by the browser tests
+ui-screenshots: install-dev browser
+	NFEX_UI_SCREENSHOTS=1 $(BIN)/python -m pytest -p no:xdist tests/service/test_ui.py
 
 bench: install-dev
 	for f in bench/bench_*.py; do echo "== $$f"; $(BIN)/python $$f || exit 1; done

@@ -95,3 +95,35 @@ def run_advisor(advisor: Advisor, context: dict[str, Any], frame: np.ndarray | N
                 f"scoring a frame needs {e.name}, which this build lacks; send the context alone (JSON) for now"
             ) from e
         raise
+
+
+KEYPOINTS_SHOWN = 5000  # the strongest keypoints listed (by response); ``count`` gives them all
+
+
+def keypoints_flag(text: str) -> bool:
+    value = text.strip().lower()
+    if value not in ("1", "true", "yes", "0", "false", "no", ""):
+        raise BadInput(f"keypoints must be true or false, not {text!r}")
+    return value in ("1", "true", "yes")
+
+
+def keypoints_of(vocab: Any, selection: Selection, frame: np.ndarray | None) -> dict[str, Any]:
+    """The keypoints α* finds with Θ′ on the full frame, as a client would extract them: pixel positions
+    (x right, y down) and diameters, strongest first."""
+    if frame is None:
+        raise BadInput("keypoints need a frame: send multipart/form-data with a 'frame' part")
+    from nfex_core.vision.registry import ExtractorRegistry
+
+    feats = ExtractorRegistry.from_vocabulary(vocab).extract(selection.extractor, frame, selection.params)
+    order = np.argsort(-feats.response, kind="stable")[:KEYPOINTS_SHOWN]
+    xy = np.round(feats.xy[order].astype(float), 1)
+    size = np.round(feats.size[order].astype(float), 1)
+    return {
+        "extractor": selection.extractor,
+        "count": len(feats),
+        "width": int(frame.shape[1]),
+        "height": int(frame.shape[0]),
+        "xy": xy.tolist(),
+        "size": size.tolist(),
+        "extraction_ms": round(feats.elapsed_ms, 3),
+    }

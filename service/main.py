@@ -24,10 +24,13 @@ from .routes import (
     graph_store,
     health,
     programs,
+    queries,
     rules,
+    samples,
     select,
     sessions,
     sparql,
+    ui,
     versions,
     vocabulary,
 )
@@ -87,9 +90,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                   description=DESCRIPTION, lifespan=lifespan, docs_url=None, redoc_url=None)
     problems.install(app)
     for module in (health, vocabulary, select, sessions, feedback, sparql, graph_store, extractors, conditions, rules, programs,
-                   versions):
+                   versions, queries, samples):
         app.include_router(module.router)
     openapi.install(app)
     app.add_middleware(MethodsMiddleware)
+    ui.mount(app)
     app.add_middleware(ServiceMiddleware, metrics=metrics, max_body_bytes=settings.max_body_bytes)
     return app

@@ -203,6 +203,11 @@ class EmbeddedBackend(Backend):
             res.serialize(out, format=RESULT_FORMATS[media])
         return media
 
+    def load(self, data: bytes, media: str = "application/n-triples") -> None:
+        """Load serialised triples into the default graph in one transaction (scratch copies for
+        what-if previews, nfex_core/impact.py)."""
+        self._store.load(data, format=GRAPH_FORMATS[media])
+
     def flush(self) -> None:
         self._store.flush()
 

@@ -7,12 +7,13 @@ replaces the program's statements as one SHACL-checked transaction (docs/dsl.md)
 from __future__ import annotations
 
 import importlib
+import threading
 from typing import Any
 
 from fastapi import APIRouter, Request, Response
 from fastapi.concurrency import run_in_threadpool
 
-from nfex_core.errors import NotFound
+from nfex_core.errors import NotFound, QueryLimitExceeded
 
 from ..bodies import media_type, utf8_text
 from ..deps import EditorDep, IfMatchDep, KGDep
@@ -23,6 +24,9 @@ from ..schemas import PROBLEM_RESPONSES, Program, ProgramList, WriteResult, prob
 
 router = APIRouter(prefix="/v1/programs", tags=["editing: programs"], responses={**PROBLEM_RESPONSES, **problems(501)})
 PROGRAM_EXAMPLE = 'adjust ORB.nfeatures by 1.5 when light is dark because "dark frames have fewer corners"\n'
+TEXT_BODY = {"requestBody": {"required": True, "content": {"text/plain": {"schema": {"type": "string"}, "example": PROGRAM_EXAMPLE}}}}
+PREVIEW_LIMIT = 500  # contexts listed in a preview (the counts cover all)
+_previews = threading.Semaphore(1)  # a preview compiles the rule table twice: one at a time per process
 
 
 def _dsl() -> Any:
@@ -55,6 +59,50 @@ def get_program(name: str, kg: KGDep) -> dict[str, Any]:
     return {**_info(found[0]), "text": render(dsl.show(kg, name))}
 
 
+async def _program_text(request: Request) -> str:
+    media = media_type(request.headers.get("content-type"))
+    if media not in ("text/plain", "text/x-nfex"):
+        raise UnsupportedMediaType(f"send the program as text/plain, not {media or 'nothing'!r}")
+    return await utf8_text(request, "the program")
+
+
+def _problem(e: Any) -> dict[str, Any]:
+    return {k: v for k, v in e.problem().items() if k != "problems"}
+
+
+@router.post("/{name}/check", summary="Check DSL text against the graph without applying it: every problem with line and column",
+             openapi_extra=TEXT_BODY)
+async def check_program(name: str, request: Request, kg: KGDep) -> dict[str, Any]:
+    """200 with ``valid`` and ``problems`` (each an RFC 9457 problem with ``line``, ``column`` and, for an
+    unknown name, the ``allowed`` names): a check that finds problems has still succeeded."""
+    check_name("program", name)
+    text = await _program_text(request)
+    program, found = await run_in_threadpool(_dsl().check_text, text, kg.vocabulary(), name=name)
+    return {"name": name, "valid": not found, "statements": len(program.statements) if program is not None else None,
+            "problems": [_problem(e) for e in found]}
+
+
+@router.post("/{name}/preview", summary="What applying DSL text would change in the decisions (contexts whose α or Θ′ change); nothing is written",
+             openapi_extra=TEXT_BODY)
+async def preview_program(name: str, request: Request, kg: KGDep) -> dict[str, Any]:
+    check_name("program", name)
+    text = await _program_text(request)
+    dsl = _dsl()
+    if not _previews.acquire(blocking=False):
+        raise QueryLimitExceeded("another preview is being computed; retry in a few seconds", limit="concurrency")
+
+    def work() -> dict[str, Any]:
+        from nfex_core.impact import impact
+
+        try:
+            _, graph = dsl.compile_text(text, kg.vocabulary(), name=name, source=f"api:{name}")
+            return {"name": name, **impact(kg, dsl.change_of(kg, graph, name)).as_dict(limit=PREVIEW_LIMIT)}
+        finally:
+            _previews.release()
+
+    return await run_in_threadpool(work)
+
+
 @router.put(
     "/{name}",
     summary="Create or replace a program from DSL text (text/plain)",
@@ -64,10 +112,7 @@ def get_program(name: str, kg: KGDep) -> dict[str, Any]:
 )
 async def put_program(name: str, request: Request, kg: KGDep, token: EditorDep, expected: IfMatchDep) -> Response:
     check_name("program", name)
-    media = media_type(request.headers.get("content-type"))
-    if media not in ("text/plain", "text/x-nfex"):
-        raise UnsupportedMediaType(f"send the program as text/plain, not {media or 'nothing'!r}")
-    text = await utf8_text(request, "the program")
+    text = await _program_text(request)
     dsl = _dsl()
 
     def work() -> tuple[bool, Any]:

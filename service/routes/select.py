@@ -5,7 +5,7 @@ from fastapi import APIRouter, Request
 from fastapi.concurrency import run_in_threadpool
 
 from ..deps import AdvisorDep, SettingsDep
-from ..frames import read_select, run_advisor
+from ..frames import keypoints_flag, keypoints_of, read_select, run_advisor
 from ..schemas import CONTEXT_EXAMPLE, PROBLEM_RESPONSES, Selection, problems
 
 router = APIRouter(prefix="/v1", tags=["selection"])
@@ -36,7 +36,8 @@ SELECT_BODY = {
     "/select",
     summary="Which extractor to run, with which parameters, and why",
     description="Send the context alone as JSON, or a frame (multipart `frame`) with an optional `context` "
-    "part. Unknown condition values are rejected (422) with the values the graph allows.",
+    "part. Unknown condition values are rejected (422) with the values the graph allows. With a frame, "
+    "`?keypoints=true` adds the keypoints α* with Θ′ finds on it (for drawing; the workbench uses it).",
     openapi_extra=SELECT_BODY,
     response_model=Selection,
     response_model_exclude_unset=True,  # members as_dict() leaves out stay out
@@ -48,4 +49,7 @@ async def select(request: Request, advisor: AdvisorDep, settings: SettingsDep) -
         selection = run_advisor(advisor, context, None)
     else:
         selection = await run_in_threadpool(run_advisor, advisor, context, frame)
-    return selection.as_dict()
+    out = selection.as_dict()
+    if "keypoints" in request.query_params and keypoints_flag(request.query_params["keypoints"]):  # opt-in: off the hot path
+        out["keypoints"] = await run_in_threadpool(keypoints_of, request.app.state.kg.vocabulary(), selection, frame)
+    return out

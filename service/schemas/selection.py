@@ -150,6 +150,18 @@ class OpenCV(Out):
                               "(ORB_GRID), or null.")
 
 
+class Keypoints(Out):
+    """The keypoints α* with Θ′ finds on the full frame (``?keypoints=true``, for drawing), strongest first."""
+
+    extractor: str
+    count: int = Field(..., description="All keypoints found; at most the first few hundred are listed.")
+    width: int
+    height: int
+    xy: list[list[float]] = Field(..., description="Pixel positions [x, y] (x right, y down).")
+    size: list[float] = Field(..., description="Keypoint diameters in pixels.")
+    extraction_ms: float
+
+
 class Selection(Out):
     """α*, Θ′ and why."""
 
@@ -165,6 +177,7 @@ class Selection(Out):
     warnings: list[str]
     versions: Versions
     timings_ms: dict[str, float]
+    keypoints: Keypoints | None = Field(None, description="Only with ?keypoints=true and a frame.")
 
 
 class StreamPosition(Out):

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 import rdflib
 
 from ...config import Settings
+from ...errors import NfexError, ParseError
 from ...identity import program_iri
 from ...kg.changes import ChangeSet, graph_triples
 from ...kg.shipped import ontology_vocabulary
@@ -20,7 +21,7 @@ from ...kg.terms import n3
 from ...kg.vocab import Vocabulary
 from ...namespaces import NFEX
 from ..shape_text import shape_graph
-from .check import check
+from .check import check, problems
 from .compiler import compile_program, decompile
 from .parser import Program, parse, parse_file
 
@@ -70,12 +71,29 @@ def program_graph(kg: KnowledgeGraph, name: str) -> rdflib.Graph:
     return g
 
 
-def apply(kg: KnowledgeGraph, graph: rdflib.Graph, name: str, *, author: str, message: str = "", expected_version: int | None = None) -> CommitResult:
-    """Replace program ``name`` in the graph by ``graph`` (its compiled triples) as one transaction."""
+def change_of(kg: KnowledgeGraph, graph: rdflib.Graph, name: str) -> ChangeSet:
+    """The change that replaces program ``name`` in the graph by ``graph`` (its compiled triples)."""
     old = graph_triples(program_graph(kg, name))
     new = graph_triples(graph)
-    change = ChangeSet.of(added=new - old, removed=old - new)
+    return ChangeSet.of(added=new - old, removed=old - new)
+
+
+def apply(kg: KnowledgeGraph, graph: rdflib.Graph, name: str, *, author: str, message: str = "", expected_version: int | None = None) -> CommitResult:
+    """Replace program ``name`` in the graph by ``graph`` (its compiled triples) as one transaction."""
+    change = change_of(kg, graph, name)
     return kg.commit(change, author=author, message=message or f"apply program {name}", expected_version=expected_version)
+
+
+def check_text(text: str, vocab: Vocabulary, *, name: str, source: str | None = None) -> tuple[Program | None, list[NfexError]]:
+    """Parse and check ``text`` without raising: (the program or None on a syntax error, every problem).
+
+    A syntax error stops parsing, so it is the only problem reported; otherwise every unknown name and
+    number out of range is listed in source order, each with its line and column (``problems``)."""
+    try:
+        program = parse(text, name=name, source=source)
+    except ParseError as e:
+        return None, [e]
+    return program, problems(program, vocab)
 
 
 def remove(kg: KnowledgeGraph, name: str, *, author: str, message: str = "") -> CommitResult:

@@ -10,6 +10,7 @@ from nfex_core.config import REPO_ROOT
 from nfex_core.errors import NotFound, ValidationFailed
 from nfex_core.kg import KnowledgeGraph
 from nfex_core.kg.changes import ChangeSet, graph_triples
+from nfex_core.kg.vocab import Vocabulary
 from nfex_core.namespaces import NFEX
 from nfex_core.rules.dsl import programs
 from nfex_core.rules.dsl.parser import parse_file
@@ -110,3 +111,17 @@ def test_a_program_pruning_xfeat_for_drones_applies(kg: KnowledgeGraph) -> None:
     assert "XFEAT" not in drone.candidates
     assert any(c.reason == "no accelerator on board" for c in drone.pruned["XFEAT"])
     assert all(c.reason != "no accelerator on board" for c in table.decide({"agent": "car"}).pruned.get("XFEAT", ()))
+
+
+def test_check_text_lists_every_problem_without_raising(vocab: Vocabulary) -> None:
+    from nfex_core.errors import ParseError, UnknownName
+    from nfex_core.rules.dsl.programs import check_text
+
+    program, found = check_text("prune ORB when light is drak\nadjust ORB.nfeaturs by 2\n", vocab, name="t")
+    assert program is not None and [type(e) for e in found] == [UnknownName, UnknownName]
+    assert [(e.extra["line"], e.extra["column"]) for e in found] == [(1, 25), (2, 12)]  # at the value, at the parameter after "ORB."
+    assert "dark" in found[0].extra["allowed"]
+    program, found = check_text("prune ORB when light\n", vocab, name="t")
+    assert program is None and len(found) == 1 and isinstance(found[0], ParseError) and found[0].line == 2  # at the end
+    program, found = check_text("prune ORB when light is dark\n", vocab, name="t")
+    assert program is not None and found == [] and len(program.statements) == 1
