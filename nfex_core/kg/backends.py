@@ -14,6 +14,7 @@ in the middle of an update leaves the last committed state (RocksDB's write-ahea
 from __future__ import annotations
 
 import json
+import threading
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from pathlib import Path
@@ -70,6 +71,17 @@ class Backend(ABC):
     """The five operations every store offers."""
 
     location: str
+    exclusive: bool = False
+    """True when this process alone writes the store (an embedded folder is locked by its process):
+    commits then need no claims (kg/claims.py), only ``write_lock``."""
+
+    @property
+    def write_lock(self) -> threading.Lock:
+        """The lock this process's writers take turns on (one per backend, whatever wraps it)."""
+        lock = self.__dict__.get("_write_lock")
+        if lock is None:
+            lock = self.__dict__.setdefault("_write_lock", threading.Lock())
+        return lock
 
     @abstractmethod
     def select(self, query: str) -> SelectResult: ...
@@ -95,6 +107,8 @@ class Backend(ABC):
 
 class EmbeddedBackend(Backend):
     """An Oxigraph store in a folder (RocksDB), or in memory when ``path`` is None."""
+
+    exclusive = True
 
     def __init__(self, path: str | Path | None) -> None:
         self.location = str(path) if path is not None else ":memory:"

@@ -19,8 +19,8 @@ import threading
 import time
 import uuid
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
-from datetime import UTC, datetime, timedelta
+from dataclasses import dataclass, replace
+from datetime import UTC, datetime
 from typing import Any, TypeVar
 
 import rdflib
@@ -30,13 +30,14 @@ from rdflib.term import Literal, URIRef
 from ..config import Settings
 from ..errors import BadInput, Conflict, NotFound, PreconditionFailed, ValidationFailed
 from ..namespaces import NFEX, PREFIXES
-from . import validation
+from . import claims, validation
 from .backends import Backend, SelectResult, open_backend
 from .changes import ChangeSet, graph_triples
+from .sparql_guard import refuse_unsafe_change
 from .terms import Triple, n3, py, triple_n3
 
-META = URIRef("urn:nfex:meta")
-CLAIM_TTL_S = 60.0
+META = claims.META
+CLAIM_WAIT_S = 30.0  # the longest a writer waits on other writers' live claims (claims.py)
 HEAD = URIRef("urn:nfex:head")
 T = TypeVar("T")
 
@@ -94,7 +95,6 @@ class KnowledgeGraph:
     def __init__(self, backend: Backend, settings: Settings | None = None) -> None:
         self.backend = backend
         self.settings = settings or Settings.from_env()
-        self._write_lock = threading.Lock()
         self._cache: dict[str, tuple[int, Any]] = {}
         self._cache_lock = threading.Lock()
         self._listeners: list[Callable[[int], None]] = []
@@ -203,6 +203,14 @@ class KnowledgeGraph:
         return self._validate(effective)
 
     def _validate(self, change: ChangeSet) -> validation.Report:
+        report = self._validate_shapes(change)
+        core = [r for r in validation.core_violations(self.backend, change) if r not in report.results]
+        if not core:
+            return report
+        text = report.text + "".join(f"\nViolation: {r.line()}" for r in core)
+        return replace(report, conforms=False, results=[*report.results, *core], text=text)
+
+    def _validate_shapes(self, change: ChangeSet) -> validation.Report:
         shapes = self.shapes()
         if validation.touches_shapes(change, shapes) or self.version == 0:
             candidate = self.data_graph()
@@ -242,65 +250,85 @@ class KnowledgeGraph:
         """Apply ``change`` as one transaction: validate the touched nodes, then commit atomically.
 
         Raises ValidationFailed (nothing written) when SHACL rejects the candidate state,
-        PreconditionFailed when ``expected_version`` is not the head, Conflict when other writers kept
-        winning for ``retries`` attempts. When another writer commits first, the change is re-checked
-        against the new head and retried (unless ``expected_version`` pins the head).
+        PreconditionFailed when ``expected_version`` is not the head, Conflict when other writers
+        committed first ``retries + 1`` times, or when another writer's claim on the next version stood
+        past ``CLAIM_WAIT_S``. When another writer commits first, the change is re-checked against the
+        new head and retried (unless ``expected_version`` pins the head); while another writer holds a
+        live claim (claims.py) this one waits for its commit or its expiry.
         """
         if any(isinstance(x, rdflib.BNode) for t in change.added | change.removed for x in t):
             raise BadInput("change sets must not contain blank nodes; build them with graph_triples()")
-        with self._write_lock:
-            for attempt in range(retries + 1):
+        refuse_unsafe_change(change)
+        with self.backend.write_lock:
+            lost = 0
+            waited = 0.0
+            checked: tuple[int, ChangeSet, validation.Report] | None = None
+            while True:
                 head = self.version
                 if expected_version is not None and expected_version != head:
                     raise PreconditionFailed(
                         f"the graph is at version {head}, not {expected_version}; re-read and retry",
                         current_version=head,
                     )
-                effective = self._effective(change)
-                if effective.empty:
-                    return CommitResult(version=head, changed=False)
-                report = self._validate(effective)
-                if not report.conforms:
-                    raise ValidationFailed(report.violations, report.text, current_version=head)
-                if self._try_commit(effective, head, author, message):
+                if checked is None or checked[0] != head:
+                    effective = self._effective(change)
+                    if effective.empty:
+                        return CommitResult(version=head, changed=False)
+                    report = self._validate(effective)
+                    if not report.conforms:
+                        raise ValidationFailed(report.violations, report.text, current_version=head)
+                    checked = (head, effective, report)
+                _, effective, report = checked
+                outcome = self._try_commit(effective, head, author, message)
+                if outcome is None:
                     for listener in self._listeners:
                         listener(head + 1)
                     return CommitResult(
                         version=head + 1, changed=True, added=len(effective.added), removed=len(effective.removed), report=report
                     )
-                time.sleep(random.uniform(0.005, 0.05) * (attempt + 1))
-            raise Conflict(
-                f"other writers kept committing first ({retries + 1} attempts); the change was not applied, retry",
-                current_version=self.version,
-            )
+                if isinstance(outcome, claims.Rival):
+                    if waited + outcome.left_s > CLAIM_WAIT_S:
+                        raise Conflict(
+                            f"another writer claimed version {head + 1} and has not committed it ({outcome.iri}, "
+                            f"{outcome.left_s:.1f} s left of its claim); the change was not applied, retry — "
+                            "a claim whose writer died expires by itself",
+                            current_version=self.version,
+                        )
+                    pause = min(outcome.left_s + 0.05, 0.25)
+                    time.sleep(pause)
+                    waited += pause
+                    continue
+                lost += 1
+                if lost > retries:
+                    raise Conflict(
+                        f"other writers committed first {lost} times in a row (the head moved to version {self.version}); "
+                        "the change was not applied, retry",
+                        current_version=self.version,
+                    )
+                time.sleep(random.uniform(0.005, 0.05) * lost)
 
-    def _try_commit(self, change: ChangeSet, head: int, author: str, message: str) -> bool:
-        """Claim version head+1, and write it if the claim is uncontested; False if another writer won.
-
-        Mutual exclusion needs only that each insert and each read is atomic and sees what committed
-        before it: every writer inserts its claim, *then* reads all claims for the version. If two
-        writers both found theirs alone, each read would precede the other's insert, which precede
-        their own reads — a cycle. (A SPARQL server's DELETE/INSERT … WHERE is no compare-and-swap:
-        Oxigraph 0.5 evaluates its WHERE on a snapshot, and two guarded updates can both pass.)
-        Claims older than CLAIM_TTL_S — a writer that died between claim and commit — are ignored.
-        """
+    def _try_commit(self, change: ChangeSet, head: int, author: str, message: str) -> claims.Rival | bool | None:
+        """Write version head+1 if no other writer gets there first: None when committed, a Rival when
+        another writer's live claim stands in the way, False when the head moved (claims.py)."""
         new = head + 1
         commit_id = uuid.uuid4().hex
-        claim = URIRef(f"urn:nfex:claim:{new}:{commit_id}")
-        now = datetime.now(UTC)
-        stamp = Literal(now.isoformat(), datatype=XSD.dateTime)
-        self.backend.update(
-            f"{_prefix_block()}INSERT DATA {{ GRAPH {n3(META)} {{ {n3(claim)} nfex:claimsVersion {new} ; nfex:claimedAt {n3(stamp)} }} }}"
-        )
-        cutoff = Literal((now - timedelta(seconds=CLAIM_TTL_S)).isoformat(), datatype=XSD.dateTime)
-        rivals = self.select(
-            f"SELECT ?c WHERE {{ GRAPH {n3(META)} {{ ?c nfex:claimsVersion {new} ; nfex:claimedAt ?at }} "
-            f"FILTER (?c != {n3(claim)} && ?at > {n3(cutoff)}) }}"
-        ).rows
-        if rivals or self.version != head:
-            self.backend.update(f"DELETE WHERE {{ GRAPH {n3(META)} {{ {n3(claim)} ?p ?o }} }}")
-            return False
+        if self.backend.exclusive:  # one process owns the store; its writers take turns on write_lock
+            self.backend.update(self._commit_update(change, head, new, author, message, commit_id))
+            return None if self._committed(new, commit_id) else False
+        ttl = claims.ttl_for(len(change.added) + len(change.removed))
+        started = time.monotonic()
+        claim = claims.take(self.backend, new, ttl)
+        rivals = claims.rivals(self.backend, claim)
+        moved = self.version != head
+        if rivals or moved or time.monotonic() - started > ttl / 2:
+            claims.release(self.backend, claim)
+            if moved:
+                return False
+            return max(rivals, key=lambda r: r.left_s) if rivals else claims.Rival(str(claim.iri), 0.0)
         self.backend.update(self._commit_update(change, head, new, author, message, commit_id))
+        return None if self._committed(new, commit_id) else False
+
+    def _committed(self, new: int, commit_id: str) -> bool:
         return self.ask(f"ASK {{ GRAPH {n3(META)} {{ {n3(version_iri(new))} nfex:commitId {n3(Literal(commit_id))} }} }}")
 
     def _commit_update(
@@ -341,10 +369,7 @@ class KnowledgeGraph:
             lines.append("}")
         lines.append(f"}} WHERE {{ GRAPH {n3(META)} {{ {n3(HEAD)} nfex:versionNumber {head} }} }}")
         # claims for this and earlier versions are settled now (losers' and dead writers' included)
-        lines.append(
-            f";\nDELETE {{ GRAPH {n3(META)} {{ ?c ?p ?o }} }} WHERE {{ GRAPH {n3(META)} {{ ?c nfex:claimsVersion ?n ; ?p ?o . "
-            f"FILTER (?n <= {new}) }} }}"
-        )
+        lines.append(";\n" + claims.settle_update(new))
         return "\n".join(lines)
 
     def add(self, graph: rdflib.Graph, *, author: str, message: str = "", expected_version: int | None = None) -> CommitResult:

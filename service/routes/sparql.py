@@ -19,6 +19,7 @@ from rdflib.namespace import RDF
 
 from nfex_core.errors import BadInput
 from nfex_core.kg.backends import GRAPH_FORMATS, RESULT_FORMATS
+from nfex_core.kg.sparql_guard import refuse_unsafe_query
 from nfex_core.kg.sparql_query import classify, with_prefixes
 
 from ..bodies import media_type, utf8_text
@@ -72,6 +73,7 @@ async def _answer(request: Request, query: str | None, accept: str | None, fmt: 
     if not query.strip():
         raise BadInput("the query is empty")
     form = classify(query)
+    refuse_unsafe_query(query)
     if fmt is not None:
         if fmt not in FORMAT_PARAM:
             raise BadInput(f"unknown format {fmt!r}; known: {', '.join(FORMAT_PARAM)}")
