@@ -107,10 +107,10 @@ class KnowledgeGraph:
         settings = settings or Settings.from_env()
         kg = cls(open_backend(location or settings.store), settings)
         if seed and kg.version == 0:
-            from .seed import seed
+            from .seed import seed as seed_graph
 
             try:
-                seed(kg)
+                seed_graph(kg)
             except Conflict:  # another node seeded the shared store at the same moment
                 if kg.version == 0:
                     raise
