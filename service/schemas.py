@@ -56,7 +56,8 @@ class FeedbackRequest(BaseModel):
     session_id: str | None = Field(None, description="The session the frames came from; its context fills gaps.")
     sequence: str = Field("client-stream", min_length=1, max_length=200, description="Sequence name, e.g. kitti/01.")
     dataset: str | None = Field(None, max_length=200)
-    client: str | None = Field(None, max_length=200)
+    client: str | None = Field(None, max_length=200, description="The device or program that measured (a label on the run; "
+                               "the report is attributed to the token's holder).")
     window_start: int | None = Field(None, ge=0)
     window_end: int | None = Field(None, ge=1)
     frames: int | None = Field(None, ge=1, description="Frames in the window (default window_end - window_start).")
@@ -149,6 +150,7 @@ PROBLEM_RESPONSES: dict[int | str, dict[str, Any]] = {
     for code, text in [
         (400, "Bad input"),
         (401, "No or invalid bearer token"),
+        (403, "The token's role does not allow this, or the SPARQL uses a forbidden operation"),
         (404, "Not found"),
         (412, "If-Match names a graph version that is no longer the head"),
         (413, "Body, frame or pixel count over the limit"),

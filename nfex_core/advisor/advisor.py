@@ -18,8 +18,8 @@ Without a frame it answers from the context alone: the rules' preferences and th
 measurements (mode "prior").
 
 Measured accuracy (beyond the paper, in both modes): with A(x) = min_{y ∈ C} ATE(y) / ATE(x) ∈ (0, 1],
-C the scored candidates with measured windows under E and ATE the extractor's mean over them (the
-Decision's evidence; an unmeasured candidate has A = 0), a frame is scored F_metrics(x) + H·A(x) with
+C the scored candidates with measured windows under E and ATE the extractor's median over them (the
+Decision's evidence: admitted windows only, evidence/; an unmeasured candidate has A = 0), a frame is scored F_metrics(x) + H·A(x) with
 H = Σ_x h_x(E), the most the metric terms of F_metrics can add: the measured outcome weighs as much as
 all the frame's proxies together (on KITTI 01 under a 20 ms budget F_metrics prefers ORB to ORB_GRID on
 every frame, while ORB_GRID's measured mean ATE is two thirds of ORB's and on the sequence ORB_GRID
@@ -40,6 +40,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import BadInput, NoCandidate
+from ..evidence import ROBUST
 from ..fitness import Adjustment, adjust_params, f_metrics
 from ..kg.vocab import ExtractorSpec, Value, Vocabulary
 from ..neural.serve import ModelHolder, NeuralStep, frame_stats
@@ -305,7 +306,7 @@ class Advisor:
         # what a relative-accuracy rule pruned is re-judged against the best *affordable* extractor
         relative = [x for x, cs in decision.pruned.items() if cs and all(c.rule in terms.relative_rules for c in cs)]
         relative = [x for x in relative if admit(x)]
-        ates = {x: e.mean_ate for x, e in decision.evidence.items() if e.mean_ate}
+        ates = {x: e.ate for x, e in decision.evidence.items() if e.ate}
         outcome = settle(snap.table.cost, terms, snap.vocab.extractors, ates, theta, relative, budget)
         for x, adj in outcome.adjustments.items():
             adjustments[x] = [*adjustments[x], *adj]
@@ -447,8 +448,8 @@ def _by_network(
 
 
 def measured_accuracy(decision: Decision, candidates: Iterable[str]) -> dict[str, float]:
-    """A(x) = min over the measured candidates of their mean ATE / x's mean ATE (module docstring)."""
-    ates = {x: e.mean_ate for x in candidates if (e := decision.evidence.get(x)) is not None and e.mean_ate}
+    """A(x) = min over the measured candidates of their median ATE / x's median ATE (module docstring)."""
+    ates = {x: e.ate for x in candidates if (e := decision.evidence.get(x)) is not None and e.ate}
     best = min(ates.values(), default=None)
     return {x: best / ate for x, ate in ates.items()} if best else {}
 
@@ -497,12 +498,13 @@ def _evidence_dict(decision: Decision, x: str, theta: Theta | None = None) -> di
     e = decision.evidence.get(x)
     out: dict[str, Any] = {}
     if e is not None:
-        out = {"mean_ate_m": e.mean_ate, "windows": e.windows, "extraction_ms": e.extraction_ms}
+        out = e.as_dict()
     if theta is None:
         return out
     if x in theta.measured:
         config, cite = theta.measured[x]
-        out["configuration"] = {"iri": config.iri, "mean_ate_m": round(config.mean_ate, 6), "windows": config.windows,
+        out["configuration"] = {"iri": config.iri, "ate_m": round(config.ate, 6), "aggregate": ROBUST,
+                                "windows": config.windows, "outliers": config.outliers, "sources": len(config.sources),
                                 "because": cite.as_dict()}
     if theta.outcome is not None and x in theta.outcome.estimates:
         est = theta.outcome.estimates[x]

@@ -5,8 +5,8 @@ parameters, ORB and SIFT with "dynamically optimised" parameters, and nFEX.
   grid-spread ORB registry entry (issue 8) with its defaults.
 - ``orb-dyn`` / ``sift-dyn``: per window, the parameters that a sweep on *other* sequences measured
   best for that extractor under the window's known conditions — the configuration with the lowest
-  mean ATE over Measurements that share a condition value with the window's context, excluding every
-  measurement on the evaluated sequence (read from the graph; defaults where nothing was measured).
+  median ATE over the admitted Measurements that share a condition value with the window's context,
+  excluding every measurement on the evaluated sequence (read from the graph; defaults where nothing was measured).
 - ``nfex``: the advisor (DESIGN.md, "The one flow") per frame, with its stream state, through the VO
   chooser; an optional per-frame budget (ms) is passed where the advisor accepts one.
 """
@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..datasets.base import Frame
 from ..errors import BadInput
+from ..evidence import Observation, admitted, read_observations, robust
 from ..kg.terms import py
 from ..vo import Choice, Chooser, FrameRecord, fixed
 
@@ -31,33 +32,27 @@ METHODS = ("orb-default", "sift-default", "orb-dyn", "sift-dyn", "nfex", "orb_gr
 def best_params(
     kg: KnowledgeGraph, extractor: str, context: Mapping[str, str], exclude_sequence: str | None
 ) -> tuple[dict[str, Any], str]:
-    """The measured-best Θ for ``extractor`` under ``context`` on other sequences, and where it came from."""
+    """The measured-best Θ for ``extractor`` under ``context`` on other sequences, and where it came from:
+    the configuration with the lowest median ATE (evidence/aggregate.py) over the admitted Measurements
+    (evidence/trust.py) that share a known condition value with ``context``, each window counted once."""
     vocab = kg.vocabulary()
-    conds = []
-    for d, v in context.items():
-        if v and d in vocab.dimensions and v in vocab.dimensions[d].values:
-            conds.append(f"<{vocab.condition_value(d, v).iri}>")
-    if not conds:
+    known = {(d, v) for d, v in context.items() if v and d in vocab.dimensions and v in vocab.dimensions[d].values}
+    if not known:
         return {}, "defaults (no known condition)"
-    exclude = f'FILTER NOT EXISTS {{ ?m nfex:sequence/rdfs:label "{exclude_sequence}" }}' if exclude_sequence else ""
-    rows = kg.select(
-        f"""SELECT ?cfg (AVG(?ate) AS ?mean) (COUNT(?m) AS ?n) WHERE {{
-            ?m a nfex:Measurement ; sosa:usedProcedure ?cfg ; nfex:ateRmse ?ate ; nfex:underCondition ?c .
-            ?cfg nfex:ofExtractor/nfex:token "{extractor}" .
-            VALUES ?c {{ {' '.join(conds)} }}
-            {exclude}
-        }} GROUP BY ?cfg ORDER BY ?mean LIMIT 1"""
-    ).rows
-    if not rows:
+    per_cfg: dict[str, list[Observation]] = {}
+    for o in admitted(kg, read_observations(kg)):
+        if o.extractor == extractor and o.ate is not None and o.conditions & known and (
+                exclude_sequence is None or o.sequence_label != exclude_sequence):
+            per_cfg.setdefault(o.configuration, []).append(o)
+    if not per_cfg:
         return {}, "defaults (nothing measured)"
-    cfg = rows[0]["cfg"]
+    aggs = {cfg: robust([o.ate for o in obs if o.ate is not None], (o.source for o in obs)) for cfg, obs in per_cfg.items()}
+    cfg, agg = min(aggs.items(), key=lambda kv: (kv[1].value, kv[0]))
     settings = kg.select(
         f"SELECT ?name ?v WHERE {{ <{cfg}> nfex:hasSetting ?s . ?s nfex:parameter/nfex:opencvName ?name ; nfex:value ?v }}"
     ).rows
     params = {str(r["name"]): py(r["v"]) for r in settings}
-    n = int(py(rows[0]["n"]))
-    return params, f"sweep: {cfg} mean ATE {float(py(rows[0]['mean'])):.3f} m over {n} windows"
-
+    return params, f"sweep: {cfg} {agg.describe()}"
 
 
 @dataclass
@@ -84,7 +79,7 @@ class AdvisorChooser:
             "pruned": [p.extractor for p in sel.pruned],
             "candidates": [{"extractor": c.extractor, "score": c.score, "f_metrics": c.evidence.get("f_metrics"),
                             "measured_accuracy": c.evidence.get("measured_accuracy"),
-                            "mean_ate_m": c.evidence.get("mean_ate_m")} for c in sel.candidates],
+                            "ate_m": c.evidence.get("ate_m")} for c in sel.candidates],
         })
         return self._last
 

@@ -26,6 +26,7 @@ from rdflib.term import Literal, URIRef
 
 from ..config import Settings
 from ..errors import BadInput, ParseError
+from ..kg.backends import Backend
 from ..kg.changes import read_rdf_file
 from ..kg.seed import seed_source
 from ..kg.sparql_guard import refuse_unsafe_query
@@ -144,11 +145,12 @@ def check_rule(query: str, dimensions: Sequence[str]) -> None:
 
 
 def evaluate(
-    kg: KnowledgeGraph, rule: SparqlRule, dimensions: Sequence[str], contexts: Sequence[Sequence[URIRef | None]]
+    backend: Backend, rule: SparqlRule, dimensions: Sequence[str], contexts: Sequence[Sequence[URIRef | None]]
 ) -> dict[int, list[tuple[URIRef, str]]]:
-    """For each context index, the extractors ``rule`` prunes with their reasons."""
+    """For each context index, the extractors ``rule`` prunes with their reasons, evaluated on ``backend``
+    (the rule engine passes the evidence view, evidence/view.py)."""
     refuse_unsafe_query(rule.query)  # a rule stored by a raw update was never checked
-    rows = kg.backend.select(contextualise(rule.query, dimensions, contexts)).rows
+    rows = backend.select(contextualise(rule.query, dimensions, contexts)).rows
     out: dict[int, list[tuple[URIRef, str]]] = {}
     for r in rows:
         if "extractor" not in r or not isinstance(r["extractor"], URIRef):
