@@ -54,6 +54,9 @@ if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
 
 
+MIN_FRAME_SIDE = 8
+
+
 @dataclass
 class Snapshot:
     version: int
@@ -205,6 +208,9 @@ class Advisor:
             from ..vision.statistics import frame_statistics
 
             image = as_grey_u8(frame)
+            if min(image.shape[:2]) < MIN_FRAME_SIDE:  # a 1-pixel frame broke OpenCV's pyramids (a 500, bench_fuzz)
+                raise BadInput(f"the frame is {image.shape[1]}×{image.shape[0]} pixels; features need at least "
+                               f"{MIN_FRAME_SIDE}×{MIN_FRAME_SIDE}")
         lap("snapshot")
         if image is not None:  # once per request: context estimation and ParamNet both read them
             stats = frame_statistics(image, previous.image if previous is not None else None)
