@@ -23,6 +23,7 @@ REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
 from nfex_core.kg import KnowledgeGraph  # noqa: E402
+from nfex_core.knowledge import open_graph
 from nfex_core.neural.artifacts import NeuralModel, find_model  # noqa: E402
 from nfex_core.neural.selectornet import IMAGE_HW, numeric_input  # noqa: E402
 from nfex_core.neural.serve import NeuralStep  # noqa: E402
@@ -76,7 +77,7 @@ def main() -> None:
     print(f"model load, again in a warm process   {warm:9.3f} ms")
 
     store = tempfile.mkdtemp(prefix="nfex-bench-") + "/store"
-    kg = KnowledgeGraph.open(store)
+    kg = open_graph(store)
     vocab = kg.vocabulary()
     kg.close()
     bad = model.check(vocab)

@@ -30,6 +30,7 @@ from _timing import per_call_us  # noqa: E402
 
 from nfex_core.advisor import Advisor  # noqa: E402
 from nfex_core.kg import KnowledgeGraph  # noqa: E402
+from nfex_core.knowledge import open_graph
 from nfex_core.rules import pruning  # noqa: E402
 from nfex_core.rules.engine import RuleEngine  # noqa: E402
 
@@ -41,7 +42,7 @@ def main() -> None:
     ap.add_argument("--sparql-requests", type=int, default=20)
     args = ap.parse_args()
 
-    kg = KnowledgeGraph.open(tempfile.mkdtemp(prefix="nfex-bench-rules-"))
+    kg = open_graph(tempfile.mkdtemp(prefix="nfex-bench-rules-"))
     setup = bulk(max(10, args.measurements // 10), args.measurements)
     kg.backend.update(kg._commit_update(setup, kg.version, kg.version + 1, "bench", "bulk", "bench"))
     vocab = kg.vocabulary()

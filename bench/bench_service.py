@@ -37,9 +37,10 @@ sys.path.insert(0, str(ROOT / "bench"))
 from _timing import call_ms  # noqa: E402
 
 from nfex_core.advisor import Advisor  # noqa: E402
-from nfex_core.advisor.advisor import SCORE_PIXELS  # noqa: E402
+from nfex_core.advisor.scoring import SCORE_PIXELS  # noqa: E402
 from nfex_core.config import Settings  # noqa: E402
 from nfex_core.kg import KnowledgeGraph  # noqa: E402
+from nfex_core.knowledge import open_graph
 
 QUERY = """PREFIX nfex: <https://w3id.org/nfex#>
 SELECT ?x ?p ?default WHERE { ?p a nfex:Parameter ; nfex:parameterOf ?x ; nfex:defaultValue ?default } ORDER BY ?x ?p"""
@@ -146,7 +147,7 @@ def main() -> None:
 
     work = Path(tempfile.mkdtemp(prefix="nfex-bench-service-"))
     store = work / "store"
-    kg = KnowledgeGraph.open(str(store))
+    kg = open_graph(str(store))
     kg.backend.flush()  # type: ignore[attr-defined]
     advisor = Advisor(kg)
     advisor.select(CONTEXT)

@@ -21,6 +21,7 @@ from _graphs import bulk, change_of_about  # noqa: E402
 from _timing import call_ms  # noqa: E402
 
 from nfex_core.kg import KnowledgeGraph  # noqa: E402
+from nfex_core.knowledge import open_graph
 from nfex_core.kg.validation import validate_graph  # noqa: E402
 
 
@@ -31,7 +32,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=5)
     args = ap.parse_args()
 
-    kg = KnowledgeGraph.open(tempfile.mkdtemp(prefix="nfex-bench-"))
+    kg = open_graph(tempfile.mkdtemp(prefix="nfex-bench-"))
     seed_triples = kg.triple_count()
     n_configs = max(10, (args.triples - seed_triples) // 60)
     n_meas = max(10, (args.triples - seed_triples - 10 * n_configs) // 12)

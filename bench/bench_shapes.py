@@ -25,6 +25,7 @@ import rdflib
 
 from nfex_core.advisor import Advisor
 from nfex_core.kg import KnowledgeGraph
+from nfex_core.knowledge import open_graph
 from nfex_core.kg.validation import _run_pyshacl, shapes_closure
 from nfex_core.rules.engine import compile_table
 from nfex_core.rules.shape_check import enforce, materialise
@@ -37,7 +38,7 @@ def main() -> None:
     ap.add_argument("--requests", type=int, default=2000)
     ap.add_argument("--shacl-requests", type=int, default=20)
     args = ap.parse_args()
-    kg = KnowledgeGraph.open(tempfile.mkdtemp() + "/store")
+    kg = open_graph(tempfile.mkdtemp() + "/store")
     vocab = kg.vocabulary()
     rng = random.Random(0)
     dims = list(vocab.dimensions)

@@ -27,6 +27,7 @@ import numpy as np
 
 from nfex_core.config import Settings
 from nfex_core.kg import KnowledgeGraph
+from nfex_core.knowledge import open_graph
 from nfex_core.kg.vocab import Vocabulary
 from nfex_core.vision import metrics as M
 from nfex_core.vision.context import ESTIMATORS, estimate_context, frame_statistics
@@ -173,7 +174,7 @@ def main() -> None:
     args = ap.parse_args()
     cv2.setNumThreads(args.threads)
     data = Settings.from_env().data
-    kg = KnowledgeGraph.open(tempfile.mkdtemp(prefix="nfex-bench-"))
+    kg = open_graph(tempfile.mkdtemp(prefix="nfex-bench-"))
     vocab = kg.vocabulary()
     reg = ExtractorRegistry.from_vocabulary(vocab)
     print(f"OpenCV {cv2.__version__}, {cv2.getNumThreads()} threads; medians of {args.repeat} runs")

@@ -16,6 +16,7 @@ import time
 from nfex_core.config import Settings
 from nfex_core.datasets import ArraySequence, open_sequence
 from nfex_core.kg import KnowledgeGraph
+from nfex_core.knowledge import open_graph
 from nfex_core.vision.registry import ExtractorRegistry
 from nfex_core.vo import fixed, run_vo
 
@@ -28,7 +29,7 @@ def main() -> None:
     ap.add_argument("--extractors", default="ORB,SIFT,AKAZE,BRISK")
     args = ap.parse_args()
 
-    kg = KnowledgeGraph.open(tempfile.mkdtemp(prefix="nfex-bench-"))
+    kg = open_graph(tempfile.mkdtemp(prefix="nfex-bench-"))
     registry = ExtractorRegistry.from_vocabulary(kg.vocabulary())
     seq = open_sequence(Settings.from_env().data / "kitti", "kitti", args.sequence)
     frames = [seq[i] for i in range(min(args.frames, len(seq)))]  # decode once: time the VO, not PNG reading

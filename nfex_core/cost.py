@@ -57,7 +57,7 @@ def measured_settings(kg: KnowledgeGraph) -> dict[str, dict[str, Value]]:
 def expected_cost_query(configuration: str, extractor: str, width: int, height: int) -> str:
     """SPARQL for tiers 1, 3 and 4: the configuration's time at W×H, else its (or its extractor's) ms/MP × W·H.
 
-    Configuration IRIs are content-derived (``sweeps.records.configuration_iri``), so a client can
+    Configuration IRIs are content-derived (``identity.configuration_iri``), so a client can
     name one that was never measured and get the extractor's fallback.
     """
     return f"""PREFIX nfex: <https://w3id.org/nfex#>

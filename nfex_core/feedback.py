@@ -5,14 +5,12 @@ MeasurementShape): a ``sosa:Observation`` whose ``sosa:usedProcedure`` is the co
 the full Θ, defaults filled in, so equal configurations share one IRI), made on a ``nfex:Sequence``
 under the context's condition values, ``prov:wasGeneratedBy`` a ``nfex:Run`` (one per session, or per
 reporter and day) that ``prov:wasAssociatedWith`` the reporter, and ``prov:wasAttributedTo`` the
-reporter (a ``nfex:Reporter``: the holder of the token that sent it, ``evidence.trust.agent_iri``).
+reporter (a ``nfex:Reporter``: the holder of the token that sent it, ``identity.reporter_iri``).
 Being attributed makes it a *report*: it steers selections only once corroborated by ``nfex:minSources``
 reporters or accepted by an editor (nfex_core/evidence/trust.py).
 """
 from __future__ import annotations
 
-import re
-import uuid
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from typing import Any
@@ -21,13 +19,11 @@ import rdflib
 from rdflib.namespace import PROV, RDF, RDFS, SOSA, XSD
 from rdflib.term import Literal, URIRef
 
-from . import __version__
+from . import __version__, identity
 from .errors import BadInput
-from .evidence.trust import agent_iri
-from .kg.vocab import Value, Vocabulary
+from .kg.vocab import Vocabulary
 from .namespaces import NFEX
 from .sweeps import records
-from .sweeps.grid import canonical
 
 
 @dataclass(frozen=True)
@@ -56,27 +52,18 @@ class Feedback:
     height: int | None = None
 
 
-def slug(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9]+", "_", text).strip("_") or "x"
-
-
-def run_iri(fb: Feedback, now: datetime) -> URIRef:
+def feedback_run_iri(fb: Feedback, now: datetime) -> URIRef:
     """One run per session, or per reporter and UTC day."""
     if fb.session:
-        return NFEX[f"run_session_{slug(fb.session)}"]
-    return NFEX[f"run_feedback_{slug(fb.reporter)}_{now:%Y%m%d}"]
-
-
-def configuration_iri(extractor: str, theta: dict[str, Value]) -> URIRef:
-    """The sweeps' IRI for (α, Θ), so feedback and sweep measurements of one configuration share it."""
-    return records.configuration_iri(extractor, canonical(theta))
+        return identity.run_iri(f"session_{fb.session}")
+    return identity.run_iri(f"feedback_{fb.reporter}_{now:%Y%m%d}")
 
 
 def configuration_graph(vocab: Vocabulary, extractor: str, params: dict[str, Any]) -> tuple[rdflib.Graph, URIRef]:
     """The configuration (α, full Θ) as triples; parameters are checked against the graph's ranges."""
     spec = vocab.extractor(extractor)
     theta = spec.resolve(params)
-    cfg = configuration_iri(spec.name, theta)
+    cfg = identity.configuration_iri(spec.name, theta)
     g = rdflib.Graph()
     records.configuration_triples(g, cfg, spec, theta)
     return g, cfg
@@ -100,10 +87,10 @@ def measurement_graph(vocab: Vocabulary, fb: Feedback, *, run_exists: bool = Fal
         raise BadInput("feedback must report at least one of ate_rmse, rpe_rmse, tracking_lost, tracking_failed, mean_inliers, mean_matches")
 
     g, cfg = configuration_graph(vocab, fb.extractor, fb.params)
-    m = NFEX[f"measurement_{uuid.uuid4().hex}"]
+    m = identity.measurement_iri()
     seq = records.sequence_triples(g, fb.dataset, fb.sequence)  # the sweeps' node for the same sequence
-    agent = agent_iri(fb.reporter)
-    run = run_iri(fb, now)
+    agent = identity.reporter_iri(fb.reporter)
+    run = feedback_run_iri(fb, now)
 
     g.add((agent, RDF.type, NFEX.Reporter))
     g.add((agent, RDFS.label, Literal(fb.reporter)))
@@ -142,7 +129,7 @@ def acceptance_graph(measurement: URIRef, editor: str, now: datetime | None = No
     """The triples by which ``editor`` admits a report as evidence (evidence/trust.py)."""
     now = now or datetime.now(UTC)
     g = rdflib.Graph()
-    agent = agent_iri(editor)
+    agent = identity.reporter_iri(editor)  # the agent behind a token name, whatever its role
     g.add((agent, RDF.type, PROV.Agent))
     g.add((agent, RDFS.label, Literal(editor)))
     g.add((measurement, NFEX.acceptedBy, agent))

@@ -14,10 +14,9 @@ equally for every candidate.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
 
 from .kg.vocab import ExtractorSpec, MetricSpec, Value
-from .rules.engine import Citation, Factor
+from .rules.types import Adjustment, Citation, Factor
 
 REFERENCE_PIXELS = 640 * 480
 RESOLUTION_CITATION = Citation(
@@ -26,21 +25,6 @@ RESOLUTION_CITATION = Citation(
     reason="count parameters are scaled by pixels / (640×480): ORB-SLAM uses ~1000 features at 640×480 and ~6000 at 1080p",
     kind="adjust",
 )
-
-
-@dataclass(frozen=True)
-class Adjustment:
-    parameter: str
-    before: Value
-    after: Value
-    factor: float
-    citations: tuple[Citation, ...]
-
-    @property
-    def clamped(self) -> bool:
-        return isinstance(self.after, int | float) and not isinstance(self.after, bool) and abs(
-            float(self.before) * self.factor - float(self.after)
-        ) > 1e-9 * max(1.0, abs(float(self.after)))
 
 
 def adjust_params(

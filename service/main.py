@@ -11,7 +11,7 @@ from fastapi import FastAPI
 
 from nfex_core import __version__
 from nfex_core.advisor import Advisor
-from nfex_core.kg import KnowledgeGraph
+from nfex_core.knowledge import open_graph
 
 from . import problems
 from .config import Settings
@@ -65,7 +65,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.settings = settings
         app.state.tokens = TokenBook(settings.parsed_tokens().values())
         app.state.metrics = metrics
-        app.state.kg = kg = KnowledgeGraph.open(core.store, settings=core)
+        app.state.kg = kg = open_graph(core.store, settings=core)
         app.state.advisor = Advisor(kg)
         app.state.sessions = SessionStore(
             ttl_s=settings.session_ttl_s, max_sessions=settings.max_sessions, memory_bytes=settings.session_memory_bytes

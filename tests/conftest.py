@@ -17,6 +17,7 @@ import pytest
 
 from nfex_core.config import Settings
 from nfex_core.kg import KnowledgeGraph
+from nfex_core.knowledge import open_graph
 
 REPO = Path(__file__).resolve().parent.parent
 BARE_HOME_FLAG = "NFEX_TEST_BARE_HOME"
@@ -69,7 +70,7 @@ def wait_http(url: str, timeout: float = 30.0, proc: subprocess.Popen | None = N
 def seeded_template(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A store seeded once per test worker (without the shipped sweeps); tests get copies (~3 s)."""
     path = tmp_path_factory.mktemp("seeded") / "store"
-    kg = KnowledgeGraph.open(str(path))
+    kg = open_graph(str(path))
     kg.backend.flush()  # type: ignore[attr-defined]
     kg.close()
     del kg
@@ -90,7 +91,7 @@ def store_path(seeded_template: Path, tmp_path: Path) -> Path:
 
 @pytest.fixture
 def kg(store_path: Path) -> Iterator[KnowledgeGraph]:
-    graph = KnowledgeGraph.open(str(store_path), seed=False)
+    graph = KnowledgeGraph.open(str(store_path))
     yield graph
     graph.close()
 
@@ -106,14 +107,14 @@ def shipped_template(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Se
     """A store seeded from this checkout's ontology/ and rules/ *with* the shipped sweeps' Measurements."""
     settings = dataclasses.replace(Settings.from_env(), home=REPO)
     path = tmp_path_factory.mktemp("shipped") / "store"
-    graph = KnowledgeGraph.open(str(path), settings=settings)
+    graph = open_graph(str(path), settings=settings)
     graph.backend.flush()  # type: ignore[attr-defined]
     graph.close()
     return path, settings
 
 
 def _open_copy(template: tuple[Path, Settings], dest: Path) -> Iterator[KnowledgeGraph]:
-    graph = KnowledgeGraph.open(str(_copy_store(template[0], dest)), settings=template[1], seed=False)
+    graph = KnowledgeGraph.open(str(_copy_store(template[0], dest)), settings=template[1])
     yield graph
     graph.close()
 

@@ -1,7 +1,12 @@
-"""The advisor: one object that turns a frame and a context into a Selection (α*, Θ′ and why)."""
+"""The advisor: one object that turns a frame and a context into a Selection (α*, Θ′ and why).
+
+The flow's stages, in order: ``conditions`` → the rule table's decision → ``params`` → ``scoring`` →
+``choice``; ``advisor.Advisor`` runs them, ``selection`` holds what it answers.
+"""
 from __future__ import annotations
 
-from .advisor import Advisor, FrameState
-from .selection import CandidateScore, ContextEntry, PrunedCandidate, Selection
+from .advisor import Advisor
+from .scoring import FrameState
+from .selection import CandidateEvidence, CandidateScore, ContextEntry, PrunedCandidate, Selection
 
-__all__ = ["Advisor", "CandidateScore", "ContextEntry", "FrameState", "PrunedCandidate", "Selection"]
+__all__ = ["Advisor", "CandidateEvidence", "CandidateScore", "ContextEntry", "FrameState", "PrunedCandidate", "Selection"]

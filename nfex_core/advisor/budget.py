@@ -29,10 +29,9 @@ from typing import Any
 
 from ..cost import BudgetTerms, CostModel, Estimate
 from ..errors import UnknownName
-from ..fitness import Adjustment
 from ..kg.vocab import ExtractorSpec, Value
 from ..namespaces import NFEX
-from ..rules.engine import Citation
+from ..rules.types import Adjustment, Citation
 
 BUDGET_RULE = str(NFEX.rule_budget)
 FIT_RULE = str(NFEX.rule_budget_fit)

@@ -19,10 +19,9 @@ from collections.abc import Sequence
 
 from ..cost import CostModel
 from ..evidence import Aggregate
-from ..fitness import Adjustment
 from ..kg.vocab import ExtractorSpec, Value
 from ..namespaces import NFEX
-from ..rules.engine import Citation, MeasuredConfiguration
+from ..rules.types import Adjustment, Citation, MeasuredConfiguration
 from .budget import Budget, expected
 
 MEASURED_RULE = str(NFEX.rule_measured_configuration)

@@ -1,6 +1,7 @@
 """What the advisor answers: the extractor α*, its parameters Θ′, and why.
 
-Plain dataclasses; ``as_dict`` gives the JSON the CLI prints and the service returns.
+Typed dataclasses; the JSON the CLI prints and the service returns is rendered here, in one place
+(``as_dict``), from these types. The service's response schema (service/schemas.py) describes it.
 """
 from __future__ import annotations
 
@@ -8,11 +9,64 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..context import ContextEntry
-from ..fitness import Adjustment
+from ..cost import Estimate
+from ..evidence import ROBUST
 from ..kg.vocab import Value
-from ..rules.engine import Citation, Factor
+from ..rules.types import Adjustment, Citation, Evidence, Factor, MeasuredConfiguration
 
-__all__ = ["CandidateScore", "ContextEntry", "PrunedCandidate", "Selection"]
+__all__ = ["CandidateEvidence", "CandidateScore", "ContextEntry", "PrunedCandidate", "Selection"]
+
+
+@dataclass(frozen=True)
+class CandidateEvidence:
+    """What stands behind one candidate's Θ′ and score.
+
+    - ``measured``: the graph's measurements of α under the context's known conditions (the Decision's);
+    - ``params_source``: which source of the Θ′ chain set Θ′ (``measured`` | ``paramnet`` | ``rules``);
+    - ``configuration`` / ``configuration_because``: the measured configuration Θ′ was taken from;
+    - ``cost``: the expected extraction time under a budget (None without one);
+    - ``f_metrics``, ``measured_accuracy``: the two terms of the frame score F_metrics + H·A;
+    - ``score_without_net``: the score before SelectorNet replaced it by its probability;
+    - ``not_scored``: why the candidate was listed but not extracted.
+    """
+
+    measured: Evidence | None = None
+    params_source: str | None = None
+    configuration: MeasuredConfiguration | None = None
+    configuration_because: Citation | None = None
+    cost: Estimate | None = None
+    f_metrics: float | None = None
+    measured_accuracy: float | None = None
+    score_without_net: float | None = None
+    not_scored: str | None = None
+
+    @property
+    def expected_ms(self) -> float | None:
+        return self.cost.ms if self.cost is not None else None
+
+    def as_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        if self.measured is not None:
+            out.update(self.measured.as_dict())
+        if self.params_source is not None:
+            out["params_source"] = self.params_source
+        if self.configuration is not None:
+            c = self.configuration
+            out["configuration"] = {"iri": c.iri, "ate_m": round(c.ate, 6), "aggregate": ROBUST, "windows": c.windows,
+                                    "outliers": c.outliers, "sources": len(c.sources),
+                                    "because": self.configuration_because.as_dict() if self.configuration_because else None}
+        if self.cost is not None:
+            out["expected_ms"] = round(self.cost.ms, 3) if self.cost.ms is not None else None
+            out["cost_source"] = self.cost.source
+        if self.f_metrics is not None:
+            out["f_metrics"] = self.f_metrics
+        if self.measured_accuracy is not None:
+            out["measured_accuracy"] = round(self.measured_accuracy, 6)
+        if self.score_without_net is not None:
+            out["score_without_net"] = self.score_without_net
+        if self.not_scored is not None:
+            out["not_scored"] = self.not_scored
+        return out
 
 
 @dataclass(frozen=True)
@@ -25,7 +79,7 @@ class CandidateScore:
     adjustments: tuple[Adjustment, ...] = ()
     keypoints: int | None = None
     extraction_ms: float | None = None
-    evidence: dict[str, Any] = field(default_factory=dict)
+    evidence: CandidateEvidence = field(default_factory=CandidateEvidence)
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -34,20 +88,10 @@ class CandidateScore:
             "bonus": self.bonus,
             "metrics": self.metrics,
             "params": self.params,
-            "adjustments": [
-                {
-                    "parameter": a.parameter,
-                    "from": a.before,
-                    "to": a.after,
-                    "factor": round(a.factor, 6),
-                    "clamped": a.clamped,
-                    "because": [c.as_dict() for c in a.citations],
-                }
-                for a in self.adjustments
-            ],
+            "adjustments": [a.as_dict() for a in self.adjustments],
             "keypoints": self.keypoints,
             "extraction_ms": self.extraction_ms,
-            "evidence": self.evidence,
+            "evidence": self.evidence.as_dict(),
         }
 
 
@@ -65,7 +109,7 @@ class Selection:
     extractor: str
     params: dict[str, Value]
     mode: str  # "metrics" (F_metrics on the frame) | "prior" (no frame: rules and measurements) | "selectornet"
-    candidates: tuple[CandidateScore, ...]
+    candidates: tuple[CandidateScore, ...]  # best first: the order in which a verifying client tries them
     pruned: tuple[PrunedCandidate, ...]
     context: tuple[ContextEntry, ...]
     weights: dict[str, Factor]

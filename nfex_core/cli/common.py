@@ -1,15 +1,16 @@
 """What every command shares: opening the store, the author of a write, output helpers."""
 from __future__ import annotations
 
-import getpass
 import json
-import os
 import sys
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
 
 from ..config import Settings
+
+if TYPE_CHECKING:
+    from ..kg import KnowledgeGraph
 
 STORE_HELP = "A folder (embedded store) or an http(s) SPARQL endpoint; default $NFEX_STORE."
 
@@ -26,14 +27,15 @@ def settings() -> Settings:
     return Settings.from_env()
 
 
-def open_kg(seed: bool = True):
-    from ..kg import KnowledgeGraph
+def open_kg(seed: bool = True) -> KnowledgeGraph:
+    """The store named by ``--store`` / NFEX_STORE, seeded first if it is empty (unless ``seed`` is False)."""
+    from ..knowledge import open_graph
 
-    return KnowledgeGraph.open(state.store, seed=seed)
+    return open_graph(state.store, seed_empty=seed)
 
 
 def author(value: str | None) -> str:
-    return value or os.environ.get("NFEX_AUTHOR") or f"{getpass.getuser()} (cli)"
+    return value or settings().author_or_user()
 
 
 def echo_json(obj: Any) -> None:

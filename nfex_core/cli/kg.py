@@ -150,7 +150,7 @@ def export(
 @app.command()
 def seed() -> None:
     """Bring the graph in line with ontology/ and rules/ (adds what is new, removes what was deleted)."""
-    from ..kg.seed import seed as do_seed
+    from ..knowledge import seed as do_seed
 
     kg = open_kg(seed=False)
     report_commit(do_seed(kg), "seeded from ontology/ and rules/")

@@ -71,8 +71,8 @@ def render(sel: Selection) -> str:
     if budget:
         lines += ["", f"budget: {budget['ms']:g} ms per frame ({budget['source']}; compute {budget['compute']} ×{budget['factor']:g}; "
                       f"{budget['width']}×{budget['height']}, {budget['size_source']})"]
-        lines += [f"  expected {c.extractor}: {c.evidence['expected_ms']} ms ({c.evidence.get('cost_source')})"
-                  for c in sel.candidates if c.evidence.get("expected_ms") is not None]
+        lines += [f"  expected {c.extractor}: {c.evidence.cost.ms:.3f} ms ({c.evidence.cost.source})"
+                  for c in sel.candidates if c.evidence.cost is not None and c.evidence.cost.ms is not None]
     for w in sel.warnings:
         lines.append(f"warning: {w}")
     return "\n".join(lines)

@@ -77,9 +77,10 @@ class AdvisorChooser:
         self.selections.append({
             "frame": frame.index, "extractor": sel.extractor, "params": sel.params, "mode": sel.mode,
             "pruned": [p.extractor for p in sel.pruned],
-            "candidates": [{"extractor": c.extractor, "score": c.score, "f_metrics": c.evidence.get("f_metrics"),
-                            "measured_accuracy": c.evidence.get("measured_accuracy"),
-                            "ate_m": c.evidence.get("ate_m")} for c in sel.candidates],
+            "candidates": [{"extractor": c.extractor, "score": c.score, "f_metrics": c.evidence.f_metrics,
+                            "measured_accuracy": c.evidence.measured_accuracy,
+                            "ate_m": c.evidence.measured.ate if c.evidence.measured else None}
+                           for c in sel.candidates],
         })
         return self._last
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from .aggregate import ROBUST, Aggregate, robust
 from .observations import Observation, read_observations
-from .trust import Admission, TrustPolicy, admit, admitted, agent_iri
+from .trust import Admission, TrustPolicy, admit, admitted
 
-__all__ = ["ROBUST", "Admission", "Aggregate", "Observation", "TrustPolicy", "admit", "admitted", "agent_iri",
+__all__ = ["ROBUST", "Admission", "Aggregate", "Observation", "TrustPolicy", "admit", "admitted",
            "read_observations", "robust"]

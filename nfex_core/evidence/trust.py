@@ -16,28 +16,17 @@ sequences, runs and sources a reader may use) narrows its result further.
 """
 from __future__ import annotations
 
-import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from rdflib.term import URIRef
-
 from ..kg.terms import py
-from ..namespaces import NFEX
 from .observations import Observation
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
 
 DEFAULT_MIN_SOURCES = 3
-
-
-def agent_iri(name: str) -> URIRef:
-    """The agent behind a token name (a reporter, or an editor who accepts reports): one IRI per name.
-
-    Identity is minted here and only here, so the same token name is the same source whatever it reports."""
-    return NFEX["agent_" + (re.sub(r"[^A-Za-z0-9]+", "_", name).strip("_") or "x")]
 
 
 @dataclass(frozen=True)

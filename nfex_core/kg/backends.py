@@ -38,6 +38,15 @@ class Sink(Protocol):
     def write(self, data: bytes, /) -> int: ...
 
 
+class GraphReader(Protocol):
+    """What reading the knowledge needs: the graph version and SELECT (``KnowledgeGraph`` is one)."""
+
+    @property
+    def version(self) -> int: ...
+
+    def select(self, query: str, *, prefixes: bool = True) -> SelectResult: ...
+
+
 @dataclass(frozen=True)
 class SelectResult:
     """Variables and rows of a SELECT; unbound variables are absent from a row."""

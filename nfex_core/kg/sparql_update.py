@@ -20,16 +20,16 @@ from .sparql_guard import refuse_unsafe_update
 from .terms import from_oxigraph
 
 if TYPE_CHECKING:
-    from .store import KnowledgeGraph
+    from .backends import Backend
 
 
-def change_of_update(kg: KnowledgeGraph, update: str) -> ChangeSet:
+def change_of_update(backend: Backend, update: str) -> ChangeSet:
     """What ``update`` would add to and remove from the default graph (nothing is written here)."""
     if not update.strip():
         raise BadInput("the update is empty")
     refuse_unsafe_update(update)
     scratch = ox.Store()
-    data = kg.backend.construct("CONSTRUCT { ?s ?p ?o } WHERE { ?s ?p ?o }")
+    data = backend.construct("CONSTRUCT { ?s ?p ?o } WHERE { ?s ?p ?o }")
     scratch.load(data.serialize(format="nt").encode("utf-8"), format=ox.RdfFormat.N_TRIPLES)
     before = {(q.subject, q.predicate, q.object) for q in scratch}
     try:

@@ -30,11 +30,23 @@ from rdflib.term import Literal, URIRef
 from ..config import Settings
 from ..errors import BadInput, Conflict, NotFound, PreconditionFailed, ValidationFailed
 from ..namespaces import NFEX, PREFIXES
-from . import claims, validation
+from . import claims
 from .backends import Backend, SelectResult, open_backend
 from .changes import ChangeSet, graph_triples
 from .sparql_guard import refuse_unsafe_change
+from .sparql_update import change_of_update
 from .terms import Triple, n3, py, triple_n3
+from .validation import (
+    Report,
+    Shapes,
+    core_violations,
+    extract_shapes,
+    shapes_in,
+    touches_shapes,
+    validate_change,
+    validate_graph,
+)
+from .vocab import Vocabulary
 
 META = claims.META
 CLAIM_WAIT_S = 30.0  # the longest a writer waits on other writers' live claims (claims.py)
@@ -82,7 +94,7 @@ class CommitResult:
     changed: bool
     added: int = 0
     removed: int = 0
-    report: validation.Report | None = None
+    report: Report | None = None
 
 
 def _prefix_block() -> str:
@@ -102,19 +114,11 @@ class KnowledgeGraph:
 
     # ------------------------------------------------------------------ opening
     @classmethod
-    def open(cls, location: str | None = None, *, settings: Settings | None = None, seed: bool = True) -> KnowledgeGraph:
-        """Open ``location`` (default ``NFEX_STORE``); seed an empty store from ontology/ and rules/."""
+    def open(cls, location: str | None = None, *, settings: Settings | None = None) -> KnowledgeGraph:
+        """Open ``location`` (default: the settings' store) as it is; ``nfex_core.knowledge.open_graph``
+        also seeds an empty store."""
         settings = settings or Settings.from_env()
-        kg = cls(open_backend(location or settings.store), settings)
-        if seed and kg.version == 0:
-            from .seed import seed as seed_graph
-
-            try:
-                seed_graph(kg)
-            except Conflict:  # another node seeded the shared store at the same moment
-                if kg.version == 0:
-                    raise
-        return kg
+        return cls(open_backend(location or settings.store), settings)
 
     def close(self) -> None:
         self.backend.close()
@@ -184,43 +188,41 @@ class KnowledgeGraph:
             self._cache[key] = (v, value)
         return value
 
-    def shapes(self) -> validation.Shapes:
-        return self.cached("shapes", lambda: validation.extract_shapes(self.backend))
+    def shapes(self) -> Shapes:
+        return self.cached("shapes", lambda: extract_shapes(self.backend))
 
-    def vocabulary(self):
-        from .vocab import Vocabulary
-
+    def vocabulary(self) -> Vocabulary:
         return self.cached("vocabulary", lambda: Vocabulary.load(self))
 
     # ------------------------------------------------------------------ validating
-    def validate(self) -> validation.Report:
+    def validate(self) -> Report:
         """Validate the whole graph against its shapes (about a second at 17k triples)."""
-        return validation.validate_graph(self.data_graph(), self.shapes())
+        return validate_graph(self.data_graph(), self.shapes())
 
-    def check(self, change: ChangeSet) -> validation.Report:
+    def check(self, change: ChangeSet) -> Report:
         """Validate ``change`` against the current head without committing it."""
         effective = self._effective(change)
         return self._validate(effective)
 
-    def _validate(self, change: ChangeSet) -> validation.Report:
+    def _validate(self, change: ChangeSet) -> Report:
         report = self._validate_shapes(change)
-        core = [r for r in validation.core_violations(self.backend, change) if r not in report.results]
+        core = [r for r in core_violations(self.backend, change) if r not in report.results]
         if not core:
             return report
         text = report.text + "".join(f"\nViolation: {r.line()}" for r in core)
         return replace(report, conforms=False, results=[*report.results, *core], text=text)
 
-    def _validate_shapes(self, change: ChangeSet) -> validation.Report:
+    def _validate_shapes(self, change: ChangeSet) -> Report:
         shapes = self.shapes()
-        if validation.touches_shapes(change, shapes) or self.version == 0:
+        if touches_shapes(change, shapes) or self.version == 0:
             candidate = self.data_graph()
             for t in change.removed:
                 candidate.remove(t)
             for t in change.added:
                 candidate.add(t)
-            new_shapes = validation.shapes_in(candidate)
-            return validation.validate_graph(candidate, new_shapes)
-        return validation.validate_change(self.backend, change, shapes)
+            new_shapes = shapes_in(candidate)
+            return validate_graph(candidate, new_shapes)
+        return validate_change(self.backend, change, shapes)
 
     # ------------------------------------------------------------------ writing
     def _present(self, triples: Iterable[Triple]) -> set[Triple]:
@@ -262,7 +264,7 @@ class KnowledgeGraph:
         with self.backend.write_lock:
             lost = 0
             waited = 0.0
-            checked: tuple[int, ChangeSet, validation.Report] | None = None
+            checked: tuple[int, ChangeSet, Report] | None = None
             while True:
                 head = self.version
                 if expected_version is not None and expected_version != head:
@@ -384,9 +386,7 @@ class KnowledgeGraph:
         The update is evaluated on a copy of the affected data to find what it would add and remove;
         that change set then goes through ``commit`` like any other write.
         """
-        from .sparql_update import change_of_update
-
-        change = change_of_update(self, sparql_update)
+        change = change_of_update(self.backend, sparql_update)
         return self.commit(change, author=author, message=message or "SPARQL update", expected_version=expected_version)
 
     # ------------------------------------------------------------------ versions

@@ -9,16 +9,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from rdflib.namespace import XSD
 from rdflib.term import Literal, URIRef
 
 from ..errors import ParameterError, UnknownName
+from .backends import GraphReader
 from .terms import py
-
-if TYPE_CHECKING:
-    from .store import KnowledgeGraph
 
 Value = int | float | bool
 
@@ -221,7 +219,7 @@ class Vocabulary:
         return out
 
     @classmethod
-    def load(cls, kg: KnowledgeGraph) -> Vocabulary:
+    def load(cls, kg: GraphReader) -> Vocabulary:
         version = kg.version
         params: dict[str, dict[str, ParameterSpec]] = {}
         prow = kg.select(

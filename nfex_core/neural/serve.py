@@ -1,7 +1,7 @@
 """The advisor's neural step: Θ′ = ParamNet(E, s) and α* = SelectorNet masked to C(E), without torch.
 
 Modes (the paper's ablations): ``symbolic`` (g(Θ, E) and F_metrics only), ``paramnet``, ``selectornet``,
-``both`` (default; NFEX_NEURAL overrides). The model folder (NFEX_MODELS, default ``models/``; the
+``both`` (default; the settings' ``neural``, NFEX_NEURAL). The model folder (NFEX_MODELS, default ``models/``; the
 ``default`` model in it) is loaded on first use, once, and checked against each graph version's
 vocabulary; a missing model or a changed vocabulary falls back to symbolic and the Selection says why.
 
@@ -17,7 +17,6 @@ prune C(E).
 """
 from __future__ import annotations
 
-import os
 import threading
 import time
 from collections.abc import Mapping, Sequence
@@ -27,9 +26,9 @@ from typing import Any
 
 import numpy as np
 
-from ..fitness import Adjustment
+from ..identity import model_iri
 from ..kg.vocab import ExtractorSpec, Value, Vocabulary
-from ..rules.engine import Citation
+from ..rules.types import Adjustment, Citation
 from .artifacts import NeuralModel, find_model
 from .paramnet import decode
 from .selectornet import masked_probabilities, numeric_input, prepare_image
@@ -87,7 +86,7 @@ class NeuralStep:
         assert self.model is not None and self._u is not None
         theta = spec.defaults()
         cite = Citation(
-            rule=f"urn:nfex:model:{self.model.version}#paramnet",
+            rule=str(model_iri(self.model.version, "paramnet")),
             label=f"ParamNet {self.model.version}",
             reason="Θ′ predicted from the context and frame statistics, clamped to the graph's range",
             kind="adjust",
@@ -136,13 +135,9 @@ class NeuralStep:
 class ModelHolder:
     """Loads the model once (lazily) and answers, per graph vocabulary, which neural steps apply."""
 
-    def __init__(self, models: Path | str | None = None, mode: str | None = None, name: str = "default") -> None:
-        if models is None:
-            from ..config import Settings
-
-            models = Settings.from_env().models
+    def __init__(self, models: Path | str, mode: str = "both", name: str = "default") -> None:
         self.models = Path(models)
-        self.mode = check_mode(mode or os.environ.get("NFEX_NEURAL") or "both")
+        self.mode = check_mode(mode)
         self.name = name
         self._model: NeuralModel | None = None
         self._loaded = False

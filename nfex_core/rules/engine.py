@@ -25,88 +25,29 @@ import logging
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from rdflib.term import URIRef
 
 from ..cost import BudgetTerms, CostModel, fit_cost_model, measured_settings
 from ..errors import NfexError
-from ..evidence import ROBUST, Admission, Observation, TrustPolicy, admit, read_observations, robust
+from ..evidence import Admission, Observation, TrustPolicy, admit, read_observations, robust
 from ..evidence.view import evidence_view
 from ..kg.terms import py
 from ..kg.vocab import ExtractorSpec, Value
 from . import pruning
-from .statements import Statement, load_statements
+from .shapes import load_context_shapes
+from .statements import CompiledStatement, load_statements
+from .types import Citation, ContextKey, Decision, Evidence, Factor, MeasuredConfiguration
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
-    from .shapes import CompiledShape
 
 log = logging.getLogger("nfex.rules")
-ContextKey = tuple[str | None, ...]
 
 
-@dataclass(frozen=True)
-class Citation:
-    """A rule that shaped a decision, as a selection reports it."""
 
-    rule: str
-    label: str
-    reason: str
-    kind: str  # sparql | prune | adjust | weight | prefer | require | budget | shape
-    source: str | None = None
-
-    def as_dict(self) -> dict[str, Any]:
-        return {k: v for k, v in self.__dict__.items() if v is not None}
-
-
-@dataclass(frozen=True)
-class Factor:
-    value: float
-    citations: tuple[Citation, ...] = ()
-
-
-@dataclass(frozen=True)
-class Evidence:
-    """What the graph has measured (and admitted) for an extractor under the context's known conditions: the
-    windows that count there (``Observation.counts_under``), the median ATE and extraction time over them."""
-
-    ate: float | None
-    windows: int
-    extraction_ms: float | None = None
-    outliers: int = 0  # windows whose ATE lies over 3 scaled MADs from the median (aggregate.py)
-    sources: tuple[str, ...] = ()  # sweep runs and reporters behind the windows
-
-    def as_dict(self) -> dict[str, Any]:
-        return {"ate_m": self.ate, "aggregate": ROBUST, "windows": self.windows, "outliers": self.outliers,
-                "sources": len(self.sources), "source_iris": list(self.sources[:10]), "extraction_ms": self.extraction_ms}
-
-
-@dataclass(frozen=True)
-class MeasuredConfiguration:
-    """A configuration of an extractor and its measured accuracy under a context's known conditions."""
-
-    iri: str
-    params: Mapping[str, Value]  # the full Θ: OpenCV argument names → values, valid in the graph's ranges
-    ate: float  # the median ATE over the windows that count
-    windows: int  # measurements that count under the context
-    outliers: int = 0
-    sources: tuple[str, ...] = ()
-
-
-@dataclass(frozen=True)
-class Decision:
-    context: Mapping[str, str | None]
-    candidates: tuple[str, ...]
-    pruned: Mapping[str, tuple[Citation, ...]]
-    factors: Mapping[str, Mapping[str, Factor]]
-    weights: Mapping[str, Factor]
-    bonuses: Mapping[str, Factor]
-    evidence: Mapping[str, Evidence] = field(default_factory=dict)
-    shapes: tuple[CompiledShape, ...] = ()  # context shapes whose gate holds here (rules/shape_check.py)
-
-
-def _citation(s: Statement) -> Citation:
+def _citation(s: CompiledStatement) -> Citation:
     return Citation(str(s.iri), s.label, s.reason, s.kind, s.source)
 
 
@@ -116,7 +57,7 @@ class RuleTable:
     dimensions: tuple[str, ...]
     decisions: dict[ContextKey, Decision]
     rules: list[pruning.SparqlRule]
-    statements: list[Statement]
+    statements: list[CompiledStatement]
     errors: list[str]
     compile_ms: float
     cost: CostModel = field(default_factory=CostModel)
@@ -254,8 +195,6 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
                     pruned_by_rules.setdefault(i, []).append((spec.name, Citation(str(rule.iri), rule.label, reason, "sparql", rule.source)))
 
     statements = load_statements(kg, vocab)
-    from .shapes import load_context_shapes  # shapes.py imports this module
-
     shapes, shape_errors = load_context_shapes(kg, vocab, statements)
     errors += shape_errors
     decisions: dict[ContextKey, Decision] = {}

@@ -26,9 +26,9 @@ from rdflib.term import Literal, URIRef
 
 from ..config import Settings
 from ..errors import BadInput, ParseError
+from ..identity import rule_iri
 from ..kg.backends import Backend
 from ..kg.changes import read_rdf_file
-from ..kg.seed import seed_source
 from ..kg.sparql_guard import refuse_unsafe_query
 from ..kg.terms import n3, py
 from ..namespaces import NFEX
@@ -68,7 +68,7 @@ def parse_rule_file(path: Path, root: Path) -> SparqlRule:
             in_comment = False
     if not label:
         raise ParseError(f"{path}: a pruning rule needs a '# label: …' header line")
-    return SparqlRule(NFEX[f"rule_{path.stem.replace('-', '_')}"], label, text, " ".join(comment), str(path.relative_to(root)))
+    return SparqlRule(rule_iri(path.stem), label, text, " ".join(comment), str(path.relative_to(root)))
 
 
 def rule_triples(rule: SparqlRule) -> rdflib.Graph:
@@ -84,8 +84,7 @@ def rule_triples(rule: SparqlRule) -> rdflib.Graph:
     return g
 
 
-@seed_source("pruning-rules")
-def seed_rules(settings: Settings) -> rdflib.Graph:
+def rules_graph(settings: Settings) -> rdflib.Graph:
     """rules/pruning/*.rq as nfex:SparqlRule individuals, and the thresholds they read."""
     folder = settings.rules_dir / "pruning"
     g = rdflib.Graph()

@@ -23,11 +23,9 @@ import rdflib
 from rdflib.namespace import RDF
 from rdflib.term import URIRef
 
-from ..fitness import Adjustment
 from ..kg.vocab import ExtractorSpec, ParameterSpec, Value, Vocabulary
 from ..namespaces import NFEX
-from .engine import Citation
-from .shapes import Bound, CompiledShape
+from .types import Adjustment, Bound, Citation, CompiledShape
 
 
 @dataclass(frozen=True)

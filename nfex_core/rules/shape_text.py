@@ -18,11 +18,12 @@ from rdflib.collection import Collection
 from rdflib.namespace import RDF, RDFS, SH
 from rdflib.term import BNode, Literal, Node, URIRef
 
+from ..identity import program_iri
 from ..kg.terms import is_skolem, n3
 from ..kg.vocab import Value, Vocabulary
 from ..namespaces import NFEX
 from .shapes import COMPARATORS, DSL_COMPARATORS, CompiledShape, ShapeFormError, compile_shape
-from .statements import Atom
+from .types import ConditionAtom
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
@@ -44,7 +45,7 @@ def _prop(g: rdflib.Graph, path: URIRef, **constraints: Node) -> BNode:
     return node
 
 
-def _atom(g: rdflib.Graph, vocab: Vocabulary, atom: Atom) -> BNode:
+def _atom(g: rdflib.Graph, vocab: Vocabulary, atom: ConditionAtom) -> BNode:
     dim = vocab.dimension(atom.dimension)
     values = [dim.value(v).iri for v in sorted(atom.values)]
     if not atom.negated and len(values) == 1:
@@ -66,7 +67,7 @@ def require_shape(
     parameter: str,
     comparator: str,
     bound: Value,
-    atoms: Sequence[Atom] = (),
+    atoms: Sequence[ConditionAtom] = (),
     *,
     label: str = "",
     message: str = "",
@@ -108,7 +109,7 @@ def require_shape(
     return g
 
 
-def _atom_text(a: Atom) -> str:
+def _atom_text(a: ConditionAtom) -> str:
     """As the DSL writes an atom: ``light is dark``, ``agent is not one of (car, human)``."""
     values = sorted(a.values)
     what = values[0] if len(values) == 1 else f"one of ({', '.join(values)})"
@@ -143,8 +144,6 @@ def shape_graph(kg: KnowledgeGraph, roots: Iterable[Node]) -> rdflib.Graph:
 
 def program_shapes(kg: KnowledgeGraph, program: str) -> list[tuple[str, str]]:
     """(statement label, the DSL line read back from its SHACL shape) for each ``require`` of ``program``."""
-    from .dsl.compiler import program_iri
-
     rows = kg.select(
         f"SELECT ?label ?shape WHERE {{ ?s nfex:inProgram {n3(program_iri(program))} ; rdfs:label ?label ; nfex:shape ?shape ; nfex:order ?o }} ORDER BY ?o"
     ).rows

@@ -5,7 +5,7 @@ A context shape (``rules/shapes/context.ttl``, docs/shapes.md) has one form,
 it is GATE ⇒ REQUIREMENT on the candidate (α, Θ′) under context E. The engine reads it once per graph
 version into a ``CompiledShape``:
 
-- GATE → the extractor it names and condition atoms (the DSL's ``Atom``: a value, one of several
+- GATE → the extractor it names and condition atoms (the DSL's ``ConditionAtom``: a value, one of several
   values, or — negated — a known value not among them); an unknown dimension satisfies no atom,
   exactly as pySHACL finds no ``nfex:underCondition`` value for it;
 - REQUIREMENT → a ``Bound`` ``θ_k ⋈ b`` (⋈ ∈ {≤, <, ≥, >, =}) on one parameter's setting, compared
@@ -16,21 +16,19 @@ A shape that does not have this form is reported in the table's errors and not c
 """
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import rdflib
-from pyshacl.rdfutil.compare import compare_literal
 from rdflib.collection import Collection
 from rdflib.namespace import RDF, RDFS, SH
 from rdflib.term import BNode, Literal, Node, URIRef
 
 from ..kg.terms import is_skolem
-from ..kg.vocab import ConditionValueSpec, DimensionSpec, ExtractorSpec, ParameterSpec, Value, Vocabulary
+from ..kg.vocab import ConditionValueSpec, DimensionSpec, ExtractorSpec, ParameterSpec, Vocabulary
 from ..namespaces import NFEX
-from .engine import Citation
-from .statements import Atom, Statement
+from .shape_check import verify_prohibitions
+from .statements import CompiledStatement
+from .types import Bound, CompiledShape, ConditionAtom
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
@@ -47,65 +45,6 @@ DSL_COMPARATORS = {"<=": "<=", "<": "<", ">=": ">=", ">": ">", "=": "=", "==": "
 
 class ShapeFormError(ValueError):
     """A context shape that is not of the compiled form (docs/shapes.md)."""
-
-
-@dataclass(frozen=True)
-class Bound:
-    """``extractor.parameter ⋈ literal``: the requirement that a candidate's setting satisfies."""
-
-    extractor: str
-    parameter: str
-    comparator: str  # <= < >= > =
-    literal: Literal
-
-    def holds(self, spec: ParameterSpec, value: Value) -> bool:
-        """The SHACL verdict on the setting ``value`` (pySHACL's own literal comparison)."""
-        node = spec.literal(value)
-        if self.comparator == "=":
-            return bool(node == self.literal)
-        try:
-            c = compare_literal(node, self.literal)
-        except Exception:  # incomparable literals fail the constraint in pySHACL too
-            return False
-        return {"<=": c <= 0, "<": c < 0, ">=": c >= 0, ">": c > 0}[self.comparator]
-
-    def text(self) -> str:
-        return f"{self.extractor}.{self.parameter} {self.comparator} {self.literal}"
-
-
-@dataclass(frozen=True)
-class CompiledShape:
-    """One context shape (or a DSL ``require`` without a shape) as the advisor checks it."""
-
-    iri: URIRef
-    label: str
-    message: str
-    extractor: str | None  # None: the gate admits every extractor
-    atoms: tuple[Atom, ...]
-    bound: Bound | None  # None: a prohibition
-    prune: bool = False  # nfex:pruneOnViolation: do not clamp
-    kind: str = "shape"  # shape | require
-    source: str | None = None
-
-    def applies(self, context: Mapping[str, str | None]) -> bool:
-        return all(a.holds(context) for a in self.atoms)
-
-    def concerns(self, extractor: str) -> bool:
-        return self.extractor is None or self.extractor == extractor
-
-    def violated(self, spec: ExtractorSpec, params: Mapping[str, Value]) -> bool:
-        """The unrepaired verdict for candidate (spec, params) in a context where the gate's atoms hold."""
-        if not self.concerns(spec.name):
-            return False
-        if self.bound is None:
-            return True
-        if self.bound.extractor != spec.name or self.bound.parameter not in params:
-            return True  # no setting of that parameter: sh:qualifiedMinCount 1 fails
-        return not self.bound.holds(spec.parameters[self.bound.parameter], params[self.bound.parameter])
-
-    @property
-    def citation(self) -> Citation:
-        return Citation(str(self.iri), self.label, self.message, self.kind, self.source)
 
 
 # ---------------------------------------------------------------------------------------- reading
@@ -133,12 +72,12 @@ def _value_spec(vocab: Vocabulary, node: Node) -> ConditionValueSpec:
     return spec
 
 
-def _atom(g: rdflib.Graph, vocab: Vocabulary, prop: Node) -> Atom:
+def _atom(g: rdflib.Graph, vocab: Vocabulary, prop: Node) -> ConditionAtom:
     """``sh:hasValue V`` | qualified ``sh:in (V…)`` | qualified ``inDimension D ; sh:not [ sh:in (V…) ]``."""
     if (prop, SH.hasValue, None) in g:
         _only(g, prop, {SH.path, SH.hasValue}, "a condition atom")
         v = _value_spec(vocab, _one(g, prop, SH.hasValue, "a condition atom"))
-        return Atom(v.dimension, frozenset({v.name}))
+        return ConditionAtom(v.dimension, frozenset({v.name}))
     _only(g, prop, {SH.path, SH.qualifiedValueShape, SH.qualifiedMinCount}, "a condition atom")
     if _one(g, prop, SH.qualifiedMinCount, "a condition atom") != Literal(1):
         raise ShapeFormError("a condition atom needs sh:qualifiedMinCount 1")
@@ -163,13 +102,13 @@ def _atom(g: rdflib.Graph, vocab: Vocabulary, prop: Node) -> Atom:
     dims = {v.dimension for v in values}
     if len(dims) != 1:
         raise ShapeFormError("the values of one condition atom must belong to one dimension")
-    return Atom(dims.pop(), frozenset(v.name for v in values), negated)
+    return ConditionAtom(dims.pop(), frozenset(v.name for v in values), negated)
 
 
-def _gate(g: rdflib.Graph, vocab: Vocabulary, gate: Node) -> tuple[str | None, tuple[Atom, ...]]:
+def _gate(g: rdflib.Graph, vocab: Vocabulary, gate: Node) -> tuple[str | None, tuple[ConditionAtom, ...]]:
     _only(g, gate, {SH.property}, "the gate")
     extractor: str | None = None
-    atoms: list[Atom] = []
+    atoms: list[ConditionAtom] = []
     for prop in sorted(g.objects(gate, SH.property), key=str):
         path = _one(g, prop, SH.path, "a gate property")
         if path == NFEX.ofExtractor:
@@ -257,7 +196,7 @@ def context_shape_nodes(g: rdflib.Graph) -> list[Node]:
     return sorted(nodes, key=str)
 
 
-def require_as_shape(s: Statement) -> CompiledShape | None:
+def require_as_shape(s: CompiledStatement) -> CompiledShape | None:
     """A DSL ``require`` that has no SHACL shape of its own, with the same semantics."""
     if s.extractor is None or s.parameter is None or s.value is None or s.comparator not in DSL_COMPARATORS:
         return None
@@ -265,7 +204,7 @@ def require_as_shape(s: Statement) -> CompiledShape | None:
     return CompiledShape(s.iri, s.label, s.reason, s.extractor, s.atoms, bound, kind="require", source=s.source)
 
 
-def load_context_shapes(kg: KnowledgeGraph, vocab: Vocabulary, statements: list[Statement]) -> tuple[list[CompiledShape], list[str]]:
+def load_context_shapes(kg: KnowledgeGraph, vocab: Vocabulary, statements: list[CompiledStatement]) -> tuple[list[CompiledShape], list[str]]:
     """Every context shape of the graph and every shapeless ``require``; errors for malformed shapes."""
     g = kg.shapes().graph
     out: list[CompiledShape] = []
@@ -275,8 +214,6 @@ def load_context_shapes(kg: KnowledgeGraph, vocab: Vocabulary, statements: list[
             out.append(compile_shape(g, vocab, node))
         except ShapeFormError as e:
             errors.append(f"{node}: {e} (docs/shapes.md)")
-    from .shape_check import verify_prohibitions  # shape_check imports this module
-
     out, unverified = verify_prohibitions(out, vocab, g)
     errors += unverified
     for s in statements:

@@ -15,6 +15,7 @@ from rdflib.term import Literal, URIRef
 
 from ..kg.terms import py
 from ..kg.vocab import Vocabulary
+from .types import ConditionAtom
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
@@ -29,27 +30,17 @@ KINDS = {
 
 
 @dataclass(frozen=True)
-class Atom:
-    dimension: str
-    values: frozenset[str]
-    negated: bool = False
+class CompiledStatement:
+    """A DSL statement as compiled into the graph and read back by the engine (the parsed form is
+    ``dsl.parser.Statement``)."""
 
-    def holds(self, context: Mapping[str, str | None]) -> bool:
-        value = context.get(self.dimension)
-        if value is None:
-            return False
-        return (value in self.values) != self.negated
-
-
-@dataclass(frozen=True)
-class Statement:
     iri: URIRef
     kind: str  # prune | adjust | weight | prefer | require
     label: str
     reason: str
     program: str
     order: int
-    atoms: tuple[Atom, ...]
+    atoms: tuple[ConditionAtom, ...]
     source: str | None = None  # "rules/programs/default.nfex:12"
     extractor: str | None = None  # prune, prefer; adjust/require: the parameter's extractor
     parameter: str | None = None  # adjust, require: the OpenCV argument name
@@ -63,7 +54,7 @@ class Statement:
 
 
 
-def load_statements(kg: KnowledgeGraph, vocab: Vocabulary) -> list[Statement]:
+def load_statements(kg: KnowledgeGraph, vocab: Vocabulary) -> list[CompiledStatement]:
     """Every enabled statement of every program, in program order."""
     rows = kg.select(
         """SELECT ?s ?type ?label ?reason ?program ?order ?file ?line ?x ?p ?m ?factor ?weight ?bonus ?bound ?cmp ?shape WHERE {
@@ -88,7 +79,7 @@ def load_statements(kg: KnowledgeGraph, vocab: Vocabulary) -> list[Statement]:
         entry = atoms.setdefault(r["s"], {}).setdefault(r["a"], (str(r["dim"]), set(), bool(py(r.get("neg", Literal(False))))))  # type: ignore[arg-type]
         entry[1].add(str(r["v"]))
 
-    out: list[Statement] = []
+    out: list[CompiledStatement] = []
     for r in rows:
         kind = KINDS[str(r["type"]).rsplit("#", 1)[-1]]
         extractor = parameter = metric = None
@@ -105,14 +96,14 @@ def load_statements(kg: KnowledgeGraph, vocab: Vocabulary) -> list[Statement]:
             source = f"{r['file']}:{r['line']}" if "line" in r else str(r["file"])
         label = str(r.get("label", ""))
         out.append(
-            Statement(
+            CompiledStatement(
                 iri=r["s"],  # type: ignore[arg-type]
                 kind=kind,
                 label=label,
                 reason=str(r.get("reason", label)),
                 program=str(r["program"]),
                 order=int(py(r["order"])) if "order" in r else 0,
-                atoms=tuple(Atom(d, frozenset(vs), neg) for d, vs, neg in atoms.get(r["s"], {}).values()),
+                atoms=tuple(ConditionAtom(d, frozenset(vs), neg) for d, vs, neg in atoms.get(r["s"], {}).values()),
                 source=source,
                 extractor=extractor,
                 parameter=parameter,

@@ -2,8 +2,9 @@
 written to the graph (Measurements with provenance) and to the training table (paper §III-A-2)."""
 from __future__ import annotations
 
+from ..identity import canonical
 from .cells import Cell, run_cell
-from .grid import PRESETS, canonical, grid
+from .grid import PRESETS, grid
 from .records import RunInfo, measurement_graph
 from .runner import SweepSpec, export_measurements, plan, sweep
 

@@ -8,11 +8,10 @@ configuration is always included so that "default" windows exist for every sweep
 from __future__ import annotations
 
 import itertools
-import json
 import random
 from collections.abc import Mapping
-from typing import Any
 
+from ..identity import canonical
 from ..kg.vocab import ExtractorSpec, Value
 
 # 24 configurations each (2·3·2·2 for ORB, 3·2·2·2 for SIFT), spanning the parameters the paper tunes:
@@ -27,11 +26,6 @@ PRESETS: dict[str, dict[str, list[Value]]] = {
     "AKAZE": {"threshold": [0.0005, 0.001, 0.002], "nOctaves": [3, 4], "nOctaveLayers": [2, 4], "diffusivity": [1, 2]},
     "BRISK": {"thresh": [15, 30, 60], "octaves": [2, 3], "patternScale": [0.8, 1.0]},
 }
-
-
-def canonical(params: Mapping[str, Any]) -> str:
-    """A stable JSON text of a full parameter set (the CSV's ``params`` column and the cell key)."""
-    return json.dumps({k: params[k] for k in sorted(params)}, sort_keys=True, separators=(",", ":"))
 
 
 def value_lists(spec: ExtractorSpec) -> dict[str, list[Value]]:

@@ -9,7 +9,6 @@ re-running a cell addresses the same node and two sweeps share configurations.
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import platform
@@ -26,21 +25,20 @@ from rdflib.namespace import PROV, RDF, RDFS, SOSA, XSD
 from rdflib.term import Literal, URIRef
 
 from ..config import REPO_ROOT
+from ..identity import (
+    configuration_iri,
+    corruption_iri,
+    dataset_iri,
+    machine_iri,
+    measurement_iri,
+    metric_result_iri,
+    run_iri,
+    sequence_iri,
+    setting_iri,
+)
 from ..kg.vocab import ExtractorSpec, Vocabulary
 from ..namespaces import NFEX
 from .cells import DIMENSIONS
-
-
-def _slug(text: str) -> str:
-    return "".join(c if c.isalnum() else "_" for c in text)
-
-
-def configuration_iri(extractor: str, params: str) -> URIRef:
-    return NFEX[f"cfg_{extractor}_{hashlib.sha1(params.encode()).hexdigest()[:12]}"]
-
-
-def measurement_iri(cell_key: str) -> URIRef:
-    return NFEX[f"meas_{cell_key}"]
 
 
 def cpu_model() -> str:
@@ -79,11 +77,11 @@ class RunInfo:
 
     @property
     def iri(self) -> URIRef:
-        return NFEX[f"run_{self.id}"]
+        return run_iri(self.id)
 
     @property
     def machine_iri(self) -> URIRef:
-        return NFEX["machine_" + hashlib.sha1(f"{self.host}|{self.cpu}|{self.cpus}".encode()).hexdigest()[:12]]
+        return machine_iri(self.host, self.cpu, self.cpus)
 
     def triples(self, g: rdflib.Graph) -> None:
         g.add((self.iri, RDF.type, NFEX.Run))
@@ -113,13 +111,13 @@ def configuration_triples(g: rdflib.Graph, cfg: URIRef, spec: ExtractorSpec, par
     """A Configuration (α, Θ) with one ParameterSetting per parameter, each value typed by the graph.
 
     Sweeps and client feedback (nfex_core.feedback) both write configurations through this, under
-    ``configuration_iri``, so one (α, Θ) is one node whoever measured it."""
+    ``identity.configuration_iri``, so one (α, Θ) is one node whoever measured it."""
     g.add((cfg, RDF.type, NFEX.Configuration))
     g.add((cfg, RDFS.label, Literal(f"{spec.name} " + " ".join(f"{k}={v}" for k, v in sorted(params.items())))))
     g.add((cfg, NFEX.ofExtractor, spec.iri))
     for name, value in sorted(params.items()):
         p = spec.parameter(name)
-        s = URIRef(f"{cfg}_{_slug(name)}")
+        s = setting_iri(cfg, name)
         g.add((cfg, NFEX.hasSetting, s))
         g.add((s, RDF.type, NFEX.ParameterSetting))
         g.add((s, NFEX.parameter, p.iri))
@@ -127,15 +125,14 @@ def configuration_triples(g: rdflib.Graph, cfg: URIRef, spec: ExtractorSpec, par
 
 
 def sequence_triples(g: rdflib.Graph, dataset: str | None, sequence: str) -> URIRef:
-    """The Sequence node (and its Dataset): ``sequence_<dataset>_<sequence>`` labelled "<dataset> <sequence>",
-    the label `nfex evaluate` matches to hold a sequence out; without a dataset, ``sequence_<sequence>``."""
+    """The Sequence node (and its Dataset) under ``identity.sequence_iri`` — the IRI by which an evaluation
+    holds the sequence out — labelled "<dataset> <sequence>" for people."""
+    seq = sequence_iri(dataset, sequence)
     if dataset is None:
-        seq = NFEX[f"sequence_{_slug(sequence)}"]
         g.add((seq, RDF.type, NFEX.Sequence))
         g.add((seq, RDFS.label, Literal(sequence)))
         return seq
-    ds = NFEX[f"dataset_{_slug(dataset)}"]
-    seq = NFEX[f"sequence_{_slug(dataset)}_{_slug(sequence)}"]
+    ds = dataset_iri(dataset)
     g.add((ds, RDF.type, NFEX.Dataset))
     g.add((ds, RDFS.label, Literal(dataset)))
     g.add((seq, RDF.type, NFEX.Sequence))
@@ -160,7 +157,7 @@ def measurement_graph(rows: Iterable[Mapping[str, Any]], vocab: Vocabulary, run:
         g.add((m, NFEX.sequence, seq))
         g.add((m, PROV.wasGeneratedBy, run.iri))
         if str(r["corruption"]) != "none":
-            c = NFEX[f"corruption_{_slug(str(r['corruption']))}"]
+            c = corruption_iri(str(r["corruption"]))
             g.add((c, RDF.type, NFEX.Corruption))
             g.add((c, RDFS.label, Literal(str(r["corruption"]))))
             g.add((m, NFEX.corruption, c))
@@ -184,7 +181,7 @@ def measurement_graph(rows: Iterable[Mapping[str, Any]], vocab: Vocabulary, run:
         g.add((m, NFEX.frameHeight, _int(r["height"])))
         for k, v in r.items():
             if k.startswith("m.") and v not in (None, "") and k[2:] in vocab.metrics:
-                mr = URIRef(f"{m}_{_slug(k[2:])}")
+                mr = metric_result_iri(m, k[2:])
                 g.add((m, NFEX.hasMetricResult, mr))
                 g.add((mr, RDF.type, NFEX.MetricResult))
                 g.add((mr, NFEX.metric, vocab.metric(k[2:]).iri))

@@ -13,11 +13,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..errors import BadInput
+from ..identity import canonical, measurement_iri
 from ..namespaces import PREFIXES
-from . import table
 from .cells import Cell, init_worker, run_cell
-from .grid import canonical, grid
-from .records import RunInfo, measurement_graph, measurement_iri
+from .grid import grid
+from .records import RunInfo, measurement_graph
+from .table import label as table_label
+from .table import read as read_table
+from .table import write as write_table
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
@@ -118,7 +121,7 @@ def sweep(
         vocab.extractor(x)
     lengths = {s: len(open_sequence(spec.path, spec.format, s or None)) for s in spec.sequences}
     cells = plan(spec, vocab, lengths)
-    rows: list[dict[str, Any]] = [dict(r) for r in table.read(csv_path)]
+    rows: list[dict[str, Any]] = [dict(r) for r in read_table(csv_path)]
     done = {r["cell"] for r in rows}
     todo = [c for c in cells if c.key not in done]
     committed = _sync_graph(kg, rows, vocab, run, author, batch)
@@ -138,7 +141,7 @@ def sweep(
             if on_batch is not None:
                 on_batch(len(rows))
     committed += _flush(kg, csv_path, rows, pending, vocab, run, author)
-    table.write(csv_path, table.label(rows))
+    write_table(csv_path, table_label(rows))
     return {"cells": len(cells), "skipped": len(cells) - len(todo), "ran": len(todo), "committed": committed}
 
 
@@ -148,7 +151,7 @@ def _flush(kg: KnowledgeGraph, csv_path: Path, rows: list[dict[str, Any]], pendi
     if not pending:
         return 0
     rows.extend(pending)
-    table.write(csv_path, rows)
+    write_table(csv_path, rows)
     n = len(pending)
     _replace(kg, pending, vocab, run, author, f"sweep {run.id}: {n} measurements")
     pending.clear()

@@ -8,6 +8,7 @@ from fastapi import APIRouter, Response
 from rdflib.namespace import RDF, RDFS
 from rdflib.term import Literal
 
+from nfex_core.identity import condition_value_iri
 from nfex_core.kg import ChangeSet
 from nfex_core.namespaces import NFEX
 
@@ -35,7 +36,7 @@ def list_conditions(kg: KGDep) -> dict[str, Any]:
 def add_value(dimension: str, body: ConditionValueIn, kg: KGDep, token: EditorDep, expected: IfMatchDep) -> Response:
     dim = kg.vocabulary().dimension(dimension)
     check_name("condition value", body.name)  # IRI-safe; the graph's shapes decide what a token may be
-    iri = NFEX[f"{dim.name}_{body.name}"]
+    iri = condition_value_iri(dim.name, body.name)
     added = {(iri, RDF.type, NFEX.ConditionValue), (iri, NFEX.inDimension, dim.iri), (iri, NFEX.token, Literal(body.name)),
              (iri, RDFS.label, Literal(body.label or body.name, lang="en"))}
     if body.comment:

@@ -11,7 +11,7 @@ from fastapi.responses import JSONResponse
 
 from nfex_core.errors import NotFound
 from nfex_core.evidence import TrustPolicy, admit, read_observations
-from nfex_core.feedback import Feedback, acceptance_graph, measurement_graph, run_iri
+from nfex_core.feedback import Feedback, acceptance_graph, feedback_run_iri, measurement_graph
 from nfex_core.namespaces import NFEX
 
 from ..deps import EditorDep, IfMatchDep, KGDep, ReporterDep, SessionsDep
@@ -41,7 +41,7 @@ def feedback(body: FeedbackRequest, kg: KGDep, sessions: SessionsDep, token: Rep
                      "client": client, "session": body.session_id, "reporter": token.name})
     vocab = kg.vocabulary()
     now = datetime.now(UTC)
-    run_exists = kg.ask(f"ASK {{ <{run_iri(fb, now)}> a nfex:Run }}")
+    run_exists = kg.ask(f"ASK {{ <{feedback_run_iri(fb, now)}> a nfex:Run }}")
     graph, iri = measurement_graph(vocab, fb, run_exists=run_exists, now=now)
     result = kg.add(graph, author=token.name, message=f"feedback: {fb.extractor} on {fb.sequence}")
     return WriteResult.of(result, iri=str(iri)).response(status=201)

@@ -12,6 +12,7 @@ from fastapi.concurrency import run_in_threadpool
 from rdflib.namespace import RDF, RDFS
 from rdflib.term import Literal, URIRef
 
+from nfex_core import identity
 from nfex_core.errors import NotFound
 from nfex_core.kg import ChangeSet
 from nfex_core.kg.sparql_query import with_prefixes
@@ -27,7 +28,7 @@ router = APIRouter(prefix="/v1/rules", tags=["editing: rules"], responses=PROBLE
 
 def rule_iri(rule_id: str) -> URIRef:
     check_name("rule", rule_id)
-    return NFEX[f"rule_{rule_id.replace('-', '_')}"]
+    return identity.rule_iri(rule_id)
 
 
 def _rules(kg: Any, iri: URIRef | None = None) -> list[dict[str, Any]]:

@@ -52,7 +52,7 @@ def test_replay_prints_the_ate_nfex_evaluate_reports(shipped_template: tuple[Pat
         res = replay(svc.url, seq, tmp_path / "kitti01.tum", frames=20, report=False, seed=0)
     finally:
         stop_process(svc.proc)
-    kg = KnowledgeGraph.open(str(tmp_path / "local"), settings=settings, seed=False)
+    kg = KnowledgeGraph.open(str(tmp_path / "local"), settings=settings)
     try:
         [run] = evaluate(seq, kg, methods=["nfex"], runs=1, frames=20).records
     finally:

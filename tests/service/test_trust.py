@@ -107,7 +107,7 @@ def test_reports_steer_only_once_corroborated_by_min_sources_reporters(svc: Serv
     chosen = sel["candidates"][0]
     ev = chosen["evidence"]
     assert ev["aggregate"] == "median" and ev["windows"] == 18 and ev["sources"] == 3 and ev["outliers"] == 3
-    assert {N + f"agent_{n}" for n in ("carol", "dave", "erin")} <= set(ev["source_iris"])
+    assert {N + f"client_{n}" for n in ("carol", "dave", "erin")} <= set(ev["source_iris"])
     assert ev["ate_m"] == pytest.approx(0.0013, abs=1e-4)  # the median: the 5 m windows are outliers, not the answer
     configuration = ev["configuration"]
     assert configuration["sources"] == 3 and "from 3 sources" in configuration["because"]["reason"]

@@ -14,14 +14,12 @@ an edited program keeps the IRIs (and the citations) of the statements that did 
 """
 from __future__ import annotations
 
-import hashlib
-import re
-
 import rdflib
 from rdflib.namespace import RDF, RDFS, XSD
 from rdflib.term import Literal, URIRef
 
 from ...errors import NotFound
+from ...identity import program_iri, statement_iri
 from ...kg.vocab import (
     ConditionValueSpec,
     DimensionSpec,
@@ -31,6 +29,8 @@ from ...kg.vocab import (
     Vocabulary,
 )
 from ...namespaces import NFEX
+from ..shape_text import require_shape
+from ..types import ConditionAtom
 from .parser import Atom, Pos, Program, Statement
 
 CLASSES = {
@@ -42,17 +42,6 @@ CLASSES = {
 }
 KINDS = {v: k for k, v in CLASSES.items()}
 VALUE_PROPERTY = {"adjust": NFEX.factor, "weight": NFEX.weight, "prefer": NFEX.bonus, "require": NFEX.bound}
-_SAFE = re.compile(r"[^A-Za-z0-9_]")
-
-
-def program_iri(name: str) -> URIRef:
-    return NFEX[f"program_{_SAFE.sub('_', name)}"]
-
-
-def statement_iri(program: str, label: str, occurrence: int = 0) -> URIRef:
-    digest = hashlib.sha1(f"{program}\n{label}".encode()).hexdigest()[:10]
-    suffix = f"_{occurrence + 1}" if occurrence else ""
-    return NFEX[f"statement_{_SAFE.sub('_', program)}_{digest}{suffix}"]
 
 
 def _double(v: float | int | bool | None) -> Literal:
@@ -109,11 +98,8 @@ def compile_program(program: Program, vocab: Vocabulary, *, source_file: str | N
 
 def _require_shape(iri: URIRef, s: Statement, vocab: Vocabulary, label: str) -> rdflib.Graph:
     """The context shape a ``require`` compiles to (docs/shapes.md), linked with ``nfex:shape``."""
-    from ..shape_text import require_shape
-    from ..statements import Atom as WhenAtom
-
     shape = URIRef(f"{iri}_shape")
-    atoms = [WhenAtom(a.dimension, frozenset(a.values), a.negated) for a in s.when]
+    atoms = [ConditionAtom(a.dimension, frozenset(a.values), a.negated) for a in s.when]
     g = require_shape(shape, vocab, f"{s.extractor}.{s.parameter}", s.comparator or "", s.value if s.value is not None else 0, atoms, label=label, message=s.reason or "")
     g.add((iri, NFEX.shape, shape))
     return g

@@ -13,13 +13,15 @@ from typing import TYPE_CHECKING
 import rdflib
 
 from ...config import Settings
+from ...identity import program_iri
 from ...kg.changes import ChangeSet, graph_triples
+from ...kg.shipped import ontology_vocabulary
 from ...kg.terms import n3
 from ...kg.vocab import Vocabulary
 from ...namespaces import NFEX
 from ..shape_text import shape_graph
 from .check import check
-from .compiler import compile_program, decompile, program_iri
+from .compiler import compile_program, decompile
 from .parser import Program, parse, parse_file
 
 if TYPE_CHECKING:
@@ -98,3 +100,16 @@ def programs(kg: KnowledgeGraph) -> list[ProgramInfo]:
         ProgramInfo(str(r["name"]), str(r["p"]), int(str(r["n"])), str(r["file"]) if "file" in r else None)
         for r in rows
     ]
+
+
+def programs_graph(settings: Settings) -> rdflib.Graph:
+    """Seed source: rules/programs/*.nfex, checked against the vocabulary of the ontology being seeded (so
+    a program with a typo stops ``nfex kg seed`` with its line and column) and compiled to statements."""
+    g = rdflib.Graph()
+    paths = sorted((settings.rules_dir / "programs").glob("*.nfex"))
+    if not paths:
+        return g
+    vocab = ontology_vocabulary(settings)
+    for path in paths:
+        g += load(path, vocab, settings)[1]
+    return g

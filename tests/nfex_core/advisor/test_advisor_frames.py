@@ -74,6 +74,6 @@ def test_when_selectornet_decides_the_extractors_it_never_saw_are_not_extracted(
         if c.extractor in known:
             assert c.metrics and c.keypoints
         else:  # probability 0 whatever its F_metrics: listed, not extracted
-            assert c.score == 0.0 and not c.metrics and c.keypoints is None and "not_scored" in c.evidence
+            assert c.score == 0.0 and not c.metrics and c.keypoints is None and c.evidence.not_scored
     assert set(known) - {c.extractor for c in sel.candidates} <= {p.extractor for p in sel.pruned}
     assert set(sel.state.features) == {c.extractor for c in sel.candidates if c.keypoints}  # type: ignore[union-attr]

@@ -47,7 +47,7 @@ def test_a_budget_flips_the_context_only_choice_and_cites_the_rule(measured: Kno
     assert tight.budget is not None and tight.budget["source"] == "given"
     assert tight.budget["size_source"].startswith("assumed")  # no frame: the size most measurements had
     for c in tight.candidates:
-        assert c.evidence.get("expected_ms") is None or c.evidence["expected_ms"] <= 20
+        assert c.evidence.expected_ms is None or c.evidence.expected_ms <= 20
     assert advisor.select(CTX, budget_ms=1000).extractor == "SIFT"  # a larger budget flips it back
     assert advisor.select({**CTX, "budget_ms": "20"}).extractor == tight.extractor  # the budget as a context key
 
@@ -60,7 +60,7 @@ def test_theta_is_fitted_into_the_budget_before_pruning(measured: KnowledgeGraph
     assert fitted[0].after < fitted[0].before
     assert fitted[0].citations[0].rule == N + "rule_budget_fit"
     assert orb.params["nfeatures"] == fitted[0].after
-    assert orb.evidence["cost_source"] == "model" and orb.evidence["expected_ms"] <= 12
+    assert orb.evidence.cost.source == "model" and orb.evidence.expected_ms <= 12
     assert law(orb.params, 1241, 376) <= 12  # the fitted Θ′ meets the budget under the true law
     assert "SIFT" in {p.extractor for p in sel.pruned}
 
@@ -87,8 +87,8 @@ def test_agent_default_budget_and_compute_class(measured: KnowledgeGraph) -> Non
     orb_ref = next(c for c in ref.candidates if c.extractor == "ORB")
     orb_slow = next(c for c in slow.candidates if c.extractor == "ORB")
     assert not any(c.kind == "budget" for a in orb_ref.adjustments for c in a.citations)  # fits as it is
-    assert orb_slow.evidence["expected_ms"] == pytest.approx(4 * law(orb_slow.params, 1241, 376), rel=1e-3)
-    assert orb_slow.evidence["expected_ms"] <= 40 < 4 * law(orb_ref.params, 1241, 376)
+    assert orb_slow.evidence.expected_ms == pytest.approx(4 * law(orb_slow.params, 1241, 376), rel=1e-3)
+    assert orb_slow.evidence.expected_ms <= 40 < 4 * law(orb_ref.params, 1241, 376)
     assert (orb_slow.params["nlevels"], orb_slow.params["nfeatures"]) < (orb_ref.params["nlevels"], orb_ref.params["nfeatures"])
     with pytest.raises(UnknownName, match="reference"):
         advisor.select(CTX, budget_ms=20, compute="mainframe")
@@ -101,7 +101,7 @@ def test_nothing_within_budget_falls_back_to_the_cheapest_with_a_warning(measure
     assert sel.warnings and "running the cheapest" in sel.warnings[-1]
     assert sel.extractor in {"ORB", "ORB_GRID"}  # the measured extractors with the lowest floor
     chosen = sel.candidates[0]
-    assert chosen.evidence["expected_ms"] > 0.5 and any(c.kind == "budget" for a in chosen.adjustments for c in a.citations)
+    assert chosen.evidence.expected_ms > 0.5 and any(c.kind == "budget" for a in chosen.adjustments for c in a.citations)
     assert "SIFT" in {p.extractor for p in sel.pruned}
     assert sel.extractor not in {p.extractor for p in sel.pruned}
 

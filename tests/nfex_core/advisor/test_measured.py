@@ -68,18 +68,18 @@ def test_theta_is_the_best_measured_configuration_and_cites_it(measured: Knowled
     [adj] = [a for a in orb.adjustments if a.parameter == "nfeatures"]
     assert adj.before == 500 and adj.after == 2000 and adj.citations[0].rule == RULE
     assert "median ATE 0.050 m over 3 windows" in adj.citations[0].reason
-    assert orb.evidence["configuration"]["windows"] == 3
+    assert orb.evidence.configuration.windows == 3
     # an extractor without measurements here keeps g(Θ, E)
     sift = next(c for c in sel.candidates if c.extractor == "SIFT")
-    assert "configuration" not in sift.evidence
+    assert sift.evidence.configuration is None
 
 
 def test_under_a_budget_the_best_configuration_that_fits(measured: KnowledgeGraph) -> None:
     advisor = Advisor(measured, neural="symbolic")
     sel = advisor.select({**SLOW, "light": "bright"}, budget_ms=6)
     orb = next(c for c in sel.candidates if c.extractor == "ORB")
-    assert orb.params["nfeatures"] == 1000 and orb.evidence["expected_ms"] == pytest.approx(5.0)
-    reason = orb.evidence["configuration"]["because"]["reason"]
+    assert orb.params["nfeatures"] == 1000 and orb.evidence.expected_ms == pytest.approx(5.0)
+    reason = orb.evidence.configuration_because.reason
     assert "fits the budget 6 ms" in reason and "0.050 m" in reason
     assert not any(c.kind == "budget" for a in orb.adjustments for c in a.citations)  # chosen, not fitted
     big = next(c for c in advisor.select({**SLOW, "light": "bright"}, budget_ms=100).candidates if c.extractor == "ORB")
@@ -92,7 +92,7 @@ def test_disabling_the_rule_restores_g(measured: KnowledgeGraph) -> None:
     measured.add(g, author="test")
     sel = Advisor(measured, neural="symbolic").select({**SLOW, "light": "bright"})
     orb = next(c for c in sel.candidates if c.extractor == "ORB")
-    assert "configuration" not in orb.evidence
+    assert orb.evidence.configuration is None
     assert not any(c.rule == RULE for a in orb.adjustments for c in a.citations)
 
 
@@ -102,9 +102,9 @@ def test_the_frame_score_adds_the_measured_accuracy(measured: KnowledgeGraph, da
     sel = Advisor(measured, neural="symbolic").select({**SLOW, "light": "bright"}, image)
     h = sum(w.value for w in sel.weights.values())
     by = {c.extractor: c for c in sel.candidates}
-    ates = {x: by[x].evidence["ate_m"] for x in ("ORB", "SIFT")}
+    ates = {x: by[x].evidence.measured.ate for x in ("ORB", "SIFT")}
     for x, c in by.items():
         a = min(ates.values()) / ates[x] if x in ates else 0.0
-        assert c.evidence["measured_accuracy"] == pytest.approx(a, abs=1e-6)
-        assert c.score == pytest.approx(c.evidence["f_metrics"] + h * a, abs=1e-5)
-    assert by["SIFT"].evidence["measured_accuracy"] == pytest.approx(1.0)
+        assert c.evidence.measured_accuracy == pytest.approx(a, abs=1e-6)
+        assert c.score == pytest.approx(c.evidence.f_metrics + h * a, abs=1e-5)
+    assert by["SIFT"].evidence.measured_accuracy == pytest.approx(1.0)

@@ -116,7 +116,7 @@ def test_unknown_version_exits_4_and_debug_shows_the_traceback(cli_env: dict[str
 def test_store_in_use_exits_6(cli_env: dict[str, str]) -> None:
     from nfex_core.kg import KnowledgeGraph
 
-    kg = KnowledgeGraph.open(cli_env["NFEX_STORE"], seed=False)
+    kg = KnowledgeGraph.open(cli_env["NFEX_STORE"])
     try:
         p = run_cli(["sparql", PARAMS_QUERY], cli_env)
         assert p.returncode == 6 and "in use by another process" in p.stderr

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from nfex_core.config import Settings
-from nfex_core.rules.dsl.seed import ontology_vocabulary
+from nfex_core.kg.shipped import ontology_vocabulary
 from tests.conftest import run_cli
 
 

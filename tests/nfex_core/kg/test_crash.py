@@ -21,6 +21,7 @@ from rdflib.namespace import RDFS
 from nfex_core.errors import Conflict
 from nfex_core.kg import ChangeSet, KnowledgeGraph
 from nfex_core.kg import store as store_module
+from nfex_core.knowledge import open_graph
 from nfex_core.namespaces import NFEX
 
 WRITER = r"""
@@ -28,7 +29,7 @@ import os, sys, time
 from rdflib import Literal, URIRef
 from nfex_core.kg import ChangeSet, KnowledgeGraph
 location, size, stop_before_commit = sys.argv[1], int(sys.argv[2]), sys.argv[3] == "stop"
-kg = KnowledgeGraph.open(location, seed=False)
+kg = KnowledgeGraph.open(location)
 real_update = kg.backend.update
 
 def announced(text):
@@ -80,7 +81,7 @@ def test_killed_writer_leaves_a_consistent_store(store_path: Path, tmp_path: Pat
         time.sleep(delay)
         proc.send_signal(signal.SIGKILL)
         proc.wait()
-        kg = KnowledgeGraph.open(str(store_path), seed=False)
+        kg = KnowledgeGraph.open(str(store_path))
         crashed = [v for v in kg.versions() if v.author == "crash"]
         assert _crash_notes(kg) == 20000 * len(crashed) and crashed
         assert all(v.added == 20000 for v in crashed)
@@ -93,7 +94,7 @@ def _next_write_after_a_dead_claim(location: str, tmp_path: Path) -> tuple[float
     _wait_for(proc, "commit")  # claimed (shared server) and about to commit
     proc.send_signal(signal.SIGKILL)
     proc.wait()
-    kg = KnowledgeGraph.open(location, seed=False)
+    kg = KnowledgeGraph.open(location)
     head = kg.version
     t0 = time.monotonic()
     result = kg.commit(ChangeSet.adding([(NFEX.note_after_crash, RDFS.comment, Literal("after"))]), author="next")
@@ -105,7 +106,7 @@ def _next_write_after_a_dead_claim(location: str, tmp_path: Path) -> tuple[float
 def test_a_writer_killed_between_claim_and_commit_delays_the_next_write_at_most_5_s_on_a_server(
     oxigraph_server: str, tmp_path: Path
 ) -> None:
-    KnowledgeGraph.open(oxigraph_server).close()  # seed
+    open_graph(oxigraph_server).close()  # seed
     elapsed, kg = _next_write_after_a_dead_claim(oxigraph_server, tmp_path)
     assert elapsed <= 5.0, elapsed
     assert elapsed >= 1.0  # it did wait for the dead claim (BASE_TTL_S = 3 s from the claim)
@@ -126,7 +127,7 @@ def test_a_live_claim_is_reported_as_what_it_is(oxigraph_server: str, monkeypatc
     """Regression: a writer blocked by another's claim was told "other writers kept committing first"."""
     from nfex_core.kg import claims
 
-    kg = KnowledgeGraph.open(oxigraph_server)
+    kg = open_graph(oxigraph_server)
     claims.take(kg.backend, kg.version + 1, 60.0)  # a writer that claimed and went quiet
     monkeypatch.setattr(store_module, "CLAIM_WAIT_S", 0.5)
     with pytest.raises(Conflict, match=rf"another writer claimed version {kg.version + 1} and has not committed it") as e:

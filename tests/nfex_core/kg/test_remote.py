@@ -9,6 +9,7 @@ from rdflib.namespace import RDFS
 
 from nfex_core.errors import Conflict, ParseError, StoreUnavailable, ValidationFailed
 from nfex_core.kg import ChangeSet, KnowledgeGraph, parse_rdf
+from nfex_core.knowledge import open_graph
 from nfex_core.kg.backends import RemoteBackend
 from nfex_core.namespaces import NFEX
 
@@ -18,7 +19,7 @@ nfex:cfg1_nf a nfex:ParameterSetting ; nfex:parameter nfex:ORB_nfeatures ; nfex:
 
 
 def test_seed_query_commit_rollback_over_http(oxigraph_server: str) -> None:
-    kg = KnowledgeGraph.open(oxigraph_server)
+    kg = open_graph(oxigraph_server)
     assert kg.version == 1
     params = kg.select("SELECT ?p WHERE { ?p a nfex:Parameter }")
     assert len(params) == 37  # ORB 9, ORB_GRID 11, SIFT 6, AKAZE 8, BRISK 3
@@ -34,8 +35,8 @@ def test_seed_query_commit_rollback_over_http(oxigraph_server: str) -> None:
 
 
 def test_a_second_node_sees_the_same_graph(oxigraph_server: str) -> None:
-    a = KnowledgeGraph.open(oxigraph_server)
-    b = KnowledgeGraph.open(oxigraph_server)
+    a = open_graph(oxigraph_server)
+    b = open_graph(oxigraph_server)
     a.add(parse_rdf(CONFIG), author="a")
     assert b.version == 2
     assert b.ask("ASK { nfex:cfg1 nfex:ofExtractor nfex:ORB }")
@@ -43,7 +44,7 @@ def test_a_second_node_sees_the_same_graph(oxigraph_server: str) -> None:
 
 def test_concurrent_writers_never_lose_a_change(oxigraph_server: str) -> None:
     """Two nodes commit at once; compare-and-swap lets exactly one win each round, the other retries."""
-    nodes = [KnowledgeGraph.open(oxigraph_server) for _ in range(4)]
+    nodes = [open_graph(oxigraph_server) for _ in range(4)]
     per_node = 5
     errors: list[Exception] = []
 
@@ -89,7 +90,7 @@ def test_endpoint_urls_follow_server_conventions() -> None:
 def test_writes_valid_alone_but_not_together_cannot_both_land(oxigraph_server: str) -> None:
     """Write skew: two nodes each add an ORB parameter named "extra" — each valid alone. Commits are
     serialised and each is validated against the head it lands on, so exactly one lands."""
-    nodes = [KnowledgeGraph.open(oxigraph_server) for _ in range(2)]
+    nodes = [open_graph(oxigraph_server) for _ in range(2)]
     outcomes: list[str] = []
     barrier = threading.Barrier(2)
 

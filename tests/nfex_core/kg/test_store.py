@@ -128,11 +128,11 @@ def test_unknown_versions(kg: KnowledgeGraph) -> None:
 
 
 def test_store_survives_reopening(store_path) -> None:  # type: ignore[no-untyped-def]
-    kg = KnowledgeGraph.open(str(store_path), seed=False)
+    kg = KnowledgeGraph.open(str(store_path))
     kg.add(parse_rdf(CONFIG), author="a")
     kg.close()
     del kg
-    kg2 = KnowledgeGraph.open(str(store_path), seed=False)
+    kg2 = KnowledgeGraph.open(str(store_path))
     assert kg2.version == 2 and (URIRef(NFEX.cfg1), NFEX.ofExtractor, NFEX.ORB) in kg2.data_graph()
 
 
@@ -140,8 +140,8 @@ def test_second_process_on_the_same_folder_gets_a_clear_error(store_path) -> Non
     import subprocess
     import sys
 
-    kg = KnowledgeGraph.open(str(store_path), seed=False)
-    code = f"from nfex_core.kg import KnowledgeGraph; KnowledgeGraph.open({str(store_path)!r}, seed=False)"
+    kg = KnowledgeGraph.open(str(store_path))
+    code = f"from nfex_core.kg import KnowledgeGraph; KnowledgeGraph.open({str(store_path)!r})"
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     assert p.returncode != 0 and "in use by another process" in p.stderr
     kg.close()
@@ -152,7 +152,7 @@ def test_seed_sync_removes_what_left_the_files(kg: KnowledgeGraph, tmp_path, mon
     import shutil
     from dataclasses import replace
 
-    from nfex_core.kg.seed import seed
+    from nfex_core.knowledge import seed
 
     home = tmp_path / "home"
     shutil.copytree(kg.settings.home / "ontology", home / "ontology")

@@ -37,7 +37,7 @@ def graph(tmp_path_factory: pytest.TempPathFactory, seeded_template) -> Iterator
 
     path = tmp_path_factory.mktemp("agree") / "store"
     shutil.copytree(seeded_template, path, ignore=shutil.ignore_patterns("LOCK"))
-    kg = KnowledgeGraph.open(str(path), seed=False)
+    kg = KnowledgeGraph.open(str(path))
     kg.add(parse_rdf(BASE), author="test")
     yield kg, kg.data_graph(), kg.shapes()
     kg.close()

@@ -20,7 +20,7 @@ def vocab(seeded_template: Path, tmp_path_factory: pytest.TempPathFactory) -> Vo
 
     d = tmp_path_factory.mktemp("vocab") / "store"
     shutil.copytree(seeded_template, d, ignore=shutil.ignore_patterns("LOCK"))
-    kg = KnowledgeGraph.open(str(d), seed=False)
+    kg = KnowledgeGraph.open(str(d))
     try:
         return kg.vocabulary()
     finally:
@@ -33,7 +33,7 @@ def trained(seeded_template: Path, tmp_path_factory: pytest.TempPathFactory) -> 
     import shutil
 
     shutil.copytree(seeded_template, d / "store", ignore=shutil.ignore_patterns("LOCK"))
-    kg = KnowledgeGraph.open(str(d / "store"), seed=False)
+    kg = KnowledgeGraph.open(str(d / "store"))
     try:
         vocab = kg.vocabulary()
         table = make_table(d / "table.csv", vocab)

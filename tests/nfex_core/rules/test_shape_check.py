@@ -12,12 +12,12 @@ from rdflib.namespace import XSD
 from nfex_core.kg import KnowledgeGraph
 from nfex_core.kg.vocab import Vocabulary
 from nfex_core.rules.shape_check import repair
-from nfex_core.rules.shapes import Bound
+from nfex_core.rules.types import Bound
 
 
 @pytest.fixture(scope="module")
 def vocab(seeded_template) -> Vocabulary:  # type: ignore[no-untyped-def]
-    kg = KnowledgeGraph.open(str(seeded_template), seed=False)
+    kg = KnowledgeGraph.open(str(seeded_template))
     try:
         return kg.vocabulary()  # type: ignore[no-any-return]
     finally:

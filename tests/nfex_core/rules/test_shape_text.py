@@ -10,7 +10,7 @@ from rdflib.term import URIRef
 from nfex_core.kg import KnowledgeGraph
 from nfex_core.rules.engine import compile_table
 from nfex_core.rules.shape_text import describe, require_shape
-from nfex_core.rules.statements import Atom
+from nfex_core.rules.types import ConditionAtom as Atom
 
 sys.path.insert(0, str(Path(__file__).parent))
 from test_shapes_compiled import candidates, check_agreement, contexts_over  # noqa: E402

@@ -23,7 +23,7 @@ def vocab(seeded_template: Path, tmp_path_factory: pytest.TempPathFactory) -> It
     """The seeded graph's vocabulary (read-only: tests that write use the ``kg`` fixture)."""
     dest = tmp_path_factory.mktemp("vision") / "store"
     shutil.copytree(seeded_template, dest, ignore=shutil.ignore_patterns("LOCK"))
-    kg = KnowledgeGraph.open(str(dest), seed=False)
+    kg = KnowledgeGraph.open(str(dest))
     yield kg.vocabulary()
     kg.close()
 

@@ -13,7 +13,7 @@ from nfex_core.vision.registry import ExtractorRegistry
 
 @pytest.fixture(scope="session")
 def registry(seeded_template: Path) -> ExtractorRegistry:
-    kg = KnowledgeGraph.open(str(seeded_template), seed=False)
+    kg = KnowledgeGraph.open(str(seeded_template))
     try:
         return ExtractorRegistry.from_vocabulary(kg.vocabulary())
     finally:

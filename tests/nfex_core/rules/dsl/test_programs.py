@@ -89,7 +89,7 @@ def test_seeding_stops_on_a_program_with_an_unknown_name(tmp_path: Path) -> None
 
     from nfex_core.config import Settings
     from nfex_core.errors import UnknownName
-    from nfex_core.kg.seed import seed_graph
+    from nfex_core.knowledge import seed_graph
 
     home = tmp_path / "home"
     shutil.copytree(REPO_ROOT / "ontology", home / "ontology")
