@@ -8,7 +8,7 @@ the editor who accepted it). The rule engine, the cost model and the dynamic bas
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 from ..kg.terms import py
@@ -63,26 +63,23 @@ class Observation:
 
 def read_observations(kg: KnowledgeGraph) -> list[Observation]:
     """Every Measurement of the graph (one query; a row per condition value, folded here)."""
-    per: dict[str, dict[str, object]] = {}
+    first: dict[str, Observation] = {}
+    conditions: dict[str, set[tuple[str, str]]] = {}
     for r in kg.select(OBSERVATIONS).rows:
         m = str(r["m"])
-        entry = per.get(m)
-        if entry is None:
-            entry = per[m] = {
-                "iri": m, "extractor": str(r["xname"]), "configuration": str(r["cfg"]), "conditions": set(),
-                "ate": float(py(r["ate"])) if "ate" in r else None,
-                "extraction_ms": float(py(r["ms"])) if "ms" in r else None,
-                "width": int(py(r["w"])) if "w" in r else None, "height": int(py(r["h"])) if "h" in r else None,
-                "failed": bool(py(r["failed"])) if "failed" in r else False,
-                "lost": int(py(r["lost"])) if "lost" in r else None, "frames": int(py(r["frames"])) if "frames" in r else None,
-                "sequence": str(r["seq"]) if "seq" in r else None, "sequence_label": str(r["seqLabel"]) if "seqLabel" in r else None,
-                "run": str(r["run"]) if "run" in r else None, "reporter": str(r["reporter"]) if "reporter" in r else None,
-                "accepted_by": str(r["accepted"]) if "accepted" in r else None,
-            }
+        if m not in first:
+            first[m] = Observation(
+                iri=m, extractor=str(r["xname"]), configuration=str(r["cfg"]), conditions=frozenset(),
+                ate=float(py(r["ate"])) if "ate" in r else None,
+                extraction_ms=float(py(r["ms"])) if "ms" in r else None,
+                width=int(py(r["w"])) if "w" in r else None, height=int(py(r["h"])) if "h" in r else None,
+                failed=bool(py(r["failed"])) if "failed" in r else False,
+                lost=int(py(r["lost"])) if "lost" in r else None, frames=int(py(r["frames"])) if "frames" in r else None,
+                sequence=str(r["seq"]) if "seq" in r else None, sequence_label=str(r["seqLabel"]) if "seqLabel" in r else None,
+                run=str(r["run"]) if "run" in r else None, reporter=str(r["reporter"]) if "reporter" in r else None,
+                accepted_by=str(r["accepted"]) if "accepted" in r else None,
+            )
+            conditions[m] = set()
         if "dim" in r:
-            entry["conditions"].add((str(r["dim"]), str(r["val"])))  # type: ignore[attr-defined]
-    out = []
-    for entry in per.values():
-        entry["conditions"] = frozenset(entry["conditions"])  # type: ignore[arg-type]
-        out.append(Observation(**entry))  # type: ignore[arg-type]
-    return out
+            conditions[m].add((str(r["dim"]), str(r["val"])))
+    return [replace(o, conditions=frozenset(conditions[m])) for m, o in first.items()]

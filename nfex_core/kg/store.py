@@ -19,7 +19,7 @@ import threading
 import time
 import uuid
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any, TypeVar
 
@@ -205,12 +205,12 @@ class KnowledgeGraph:
         return self._validate(effective)
 
     def _validate(self, change: ChangeSet) -> Report:
-        report = self._validate_shapes(change)
-        core = [r for r in core_violations(self.backend, change) if r not in report.results]
-        if not core:
-            return report
-        text = report.text + "".join(f"\nViolation: {r.line()}" for r in core)
-        return replace(report, conforms=False, results=[*report.results, *core], text=text)
+        """The core shape first (a few ASKs: a change that would empty the graph is refused at once, not
+        after validating the whole candidate), then the shapes on the touched nodes (validation.py)."""
+        core = core_violations(self.backend, change)
+        if core:
+            return Report(False, core, "Conforms: False" + "".join(f"\nViolation: {r.line()}" for r in core))
+        return self._validate_shapes(change)
 
     def _validate_shapes(self, change: ChangeSet) -> Report:
         shapes = self.shapes()
@@ -273,10 +273,13 @@ class KnowledgeGraph:
                         current_version=head,
                     )
                 if checked is None or checked[0] != head:
+                    core = core_violations(self.backend, change)  # before the costlier steps: a change that
+                    if core:  # would empty the graph (a rollback to 0) is refused in a few ASKs
+                        raise ValidationFailed(core, "Conforms: False", current_version=head)
                     effective = self._effective(change)
                     if effective.empty:
                         return CommitResult(version=head, changed=False)
-                    report = self._validate(effective)
+                    report = self._validate_shapes(effective)
                     if not report.conforms:
                         raise ValidationFailed(report.violations, report.text, current_version=head)
                     checked = (head, effective, report)
