@@ -109,10 +109,12 @@ def main() -> int:
     finally:
         proc.terminate()
         proc.wait(timeout=30)
+    (out / "schemathesis.txt").write_text(run.stdout + run.stderr)
     found = analyse(out / "fuzz.har")
     tail = "\n".join(run.stdout.strip().splitlines()[-12:])
     print(f"service ready in {ready_s:.1f} s; schemathesis ran {fuzz_s:.0f} s (limit {args.max_time} s), exit {run.returncode}")
     print(tail)
+    print(f"(schemathesis's full output: {out / 'schemathesis.txt'})")
     print(f"requests: {found['requests']}  statuses: {found['statuses']}")
     print(f"by resource: {found['by_resource']}")
     print(f"5xx: {len(found['server_errors'])}  errors without problem+json: {len(found['not_problem_json'])}")  # type: ignore[arg-type]
