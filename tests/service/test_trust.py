@@ -259,3 +259,23 @@ def test_cors_for_reads_only(svc: Service) -> None:
 def test_no_cors_by_default(remote_service: Service) -> None:
     r = httpx.get(remote_service.url + "/v1/vocabulary", headers={"Origin": ORIGIN})
     assert "access-control-allow-origin" not in r.headers
+
+
+# --- found by bench/bench_fuzz.py ----------------------------------------------------------------
+def test_a_one_pixel_frame_is_a_400_not_a_500(svc: Service) -> None:
+    import cv2
+    import numpy as np
+
+    ok, png = cv2.imencode(".png", np.zeros((1, 1), np.uint8))
+    assert ok
+    r = httpx.post(svc.url + "/v1/select", files={"frame": ("f.png", png.tobytes(), "image/png")}, data={"context": "{}"})
+    assert "features need at least" in assert_problem(r, 400)["detail"]
+
+
+def test_a_rollback_to_version_0_is_refused_quickly_by_the_core_shape(svc: Service) -> None:
+    head = httpx.get(svc.url + "/v1/graph").json()
+    t0 = time.monotonic()
+    doc = assert_problem(httpx.post(svc.url + "/v1/graph/rollback", json={"to": 0}, headers=auth(EDITOR), timeout=60), 422)
+    assert any(v["source_shape"] == N + "CoreShape" for v in doc["violations"])
+    assert httpx.get(svc.url + "/v1/graph").json() == head
+    print(f"rollback to 0 refused in {time.monotonic() - t0:.1f} s")  # was over 30 s in a fuzz run
