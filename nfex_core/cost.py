@@ -13,35 +13,34 @@ by least squares over the extractor's measured (configuration, size) groups, kee
 terms only where the data varies them, every measured NF is a real cap (not 0 = unlimited) and the
 fitted coefficient is positive. The expected cost of a configuration is then, in this order:
 
-1. ``measured``: the configuration was measured at this frame size — its mean time;
+1. ``measured``: the configuration was measured at this frame size — its median time;
 2. ``model``: the extractor's model, where it has a features or levels term;
 3. ``scaled``: the configuration was measured at other sizes — its mean ms per megapixel × P;
 4. ``fallback``: the extractor's mean ms per megapixel × P (this configuration was never measured),
    cited as such;
 5. unknown (None) when the extractor was never measured.
 
-Tiers 1, 3 and 4 are SPARQL-answerable as they stand (``expected_cost_query``); tier 2 is the fit.
-Timings compare only on one machine: the model uses every Measurement, whatever machine ran it.
+The model reads the admitted Measurements only (evidence/trust.py: a client's report counts once
+corroborated or accepted) and takes the median time per configuration and frame size. Tiers 1, 3 and 4
+are also SPARQL-answerable (``expected_cost_query``, a documentation aid over *every* stored
+Measurement, means); tier 2 is the fit. Timings compare only on one machine: the model uses every
+admitted Measurement, whatever machine ran it.
 """
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .evidence import Observation, admitted, read_observations, robust
 from .kg.terms import py
 from .kg.vocab import ExtractorSpec, Value
 
 if TYPE_CHECKING:
     from .kg.store import KnowledgeGraph
-
-MEASURED_COSTS = """SELECT ?cfg ?xname ?w ?h (AVG(?ms) AS ?mean) (COUNT(?m) AS ?n) WHERE {
-    ?m a nfex:Measurement ; sosa:usedProcedure ?cfg ; nfex:extractionMs ?ms ; nfex:frameWidth ?w ; nfex:frameHeight ?h .
-    ?cfg nfex:ofExtractor/nfex:token ?xname .
-} GROUP BY ?cfg ?xname ?w ?h"""
 
 MEASURED_SETTINGS = """SELECT ?cfg ?name ?v WHERE {
     ?cfg a nfex:Configuration ; nfex:hasSetting ?s . ?s nfex:parameter/nfex:opencvName ?name ; nfex:value ?v .
@@ -257,27 +256,36 @@ def fit_extractor(spec: ExtractorSpec, rows: list[tuple[dict[str, Value], int, f
 
 
 def fit_cost_model(
-    kg: KnowledgeGraph, extractors: Mapping[str, ExtractorSpec], settings: Mapping[str, Mapping[str, Value]] | None = None
+    kg: KnowledgeGraph,
+    extractors: Mapping[str, ExtractorSpec],
+    settings: Mapping[str, Mapping[str, Value]] | None = None,
+    observations: Iterable[Observation] | None = None,
 ) -> CostModel:
-    """The cost model for the graph's current Measurements (SPARQL for the times, then least squares);
-    ``settings``: ``measured_settings(kg)`` when the caller has read them already."""
+    """The cost model for the graph's admitted Measurements (evidence/trust.py): per configuration and frame
+    size the median extraction time (evidence/aggregate.py), then least squares. ``settings``:
+    ``measured_settings(kg)``, and ``observations``: the admitted ones, when the caller has read them."""
     if settings is None:
         settings = measured_settings(kg)
+    if observations is None:
+        observations = admitted(kg, read_observations(kg))
+    groups: dict[tuple[str, str, int, int], list[float]] = {}
+    for o in observations:
+        if o.extraction_ms is not None and o.width and o.height and o.width > 0 and o.height > 0:
+            groups.setdefault((o.configuration, o.extractor, o.width, o.height), []).append(o.extraction_ms)
     model = CostModel()
     per_x: dict[str, list[tuple[dict[str, Value], int, float, int]]] = {}
     sizes: dict[tuple[int, int], int] = {}
     per_cfg: dict[str, list[tuple[float, int]]] = {}
-    for r in kg.select(MEASURED_COSTS).rows:
-        x = str(r["xname"])
+    for (cfg, x, w, h), times in sorted(groups.items()):
         spec = extractors.get(x)
         if spec is None:
             continue
-        w, h = int(py(r["w"])), int(py(r["h"]))
-        mean, n = float(py(r["mean"])), int(py(r["n"]))
-        if w <= 0 or h <= 0 or mean <= 0:
+        agg = robust(times)
+        mean, n = agg.value, agg.windows
+        if mean <= 0:
             continue
         try:
-            full = spec.resolve(settings.get(str(r["cfg"]), {}))
+            full = spec.resolve(settings.get(cfg, {}))
         except Exception:  # a configuration the current vocabulary no longer accepts: not comparable
             continue
         per_x.setdefault(x, []).append((full, w * h, mean, n))

@@ -4,8 +4,10 @@ The measurement has the shape of the sweeps' measurements (rules/shapes/integrit
 MeasurementShape): a ``sosa:Observation`` whose ``sosa:usedProcedure`` is the configuration (α, Θ —
 the full Θ, defaults filled in, so equal configurations share one IRI), made on a ``nfex:Sequence``
 under the context's condition values, ``prov:wasGeneratedBy`` a ``nfex:Run`` (one per session, or per
-client and day) that ``prov:wasAssociatedWith`` the client as a ``prov:SoftwareAgent``. The
-measurement-based pruning rules (rules/pruning/measured-*.rq) count it from the commit on.
+reporter and day) that ``prov:wasAssociatedWith`` the reporter, and ``prov:wasAttributedTo`` the
+reporter (a ``nfex:Reporter``: the holder of the token that sent it, ``identity.reporter_iri``).
+Being attributed makes it a *report*: it steers selections only once corroborated by ``nfex:minSources``
+reporters or accepted by an editor (nfex_core/evidence/trust.py).
 """
 from __future__ import annotations
 
@@ -33,6 +35,7 @@ class Feedback:
     dataset: str | None = None
     client: str | None = None
     session: str | None = None
+    reporter: str = "anonymous"  # the token's name
     window_start: int | None = None
     window_end: int | None = None
     frames: int | None = None
@@ -50,10 +53,10 @@ class Feedback:
 
 
 def feedback_run_iri(fb: Feedback, now: datetime) -> URIRef:
-    """One run per session, or per client and UTC day."""
+    """One run per session, or per reporter and UTC day."""
     if fb.session:
         return identity.run_iri(f"session_{fb.session}")
-    return identity.run_iri(f"feedback_{fb.client or 'anonymous'}_{now:%Y%m%d}")
+    return identity.run_iri(f"feedback_{fb.reporter}_{now:%Y%m%d}")
 
 
 def configuration_graph(vocab: Vocabulary, extractor: str, params: dict[str, Any]) -> tuple[rdflib.Graph, URIRef]:
@@ -86,14 +89,15 @@ def measurement_graph(vocab: Vocabulary, fb: Feedback, *, run_exists: bool = Fal
     g, cfg = configuration_graph(vocab, fb.extractor, fb.params)
     m = identity.measurement_iri()
     seq = records.sequence_triples(g, fb.dataset, fb.sequence)  # the sweeps' node for the same sequence
-    agent = identity.reporter_iri(fb.client or "anonymous")
+    agent = identity.reporter_iri(fb.reporter)
     run = feedback_run_iri(fb, now)
 
-    g.add((agent, RDF.type, PROV.SoftwareAgent))
-    g.add((agent, RDFS.label, Literal(fb.client or "anonymous client")))
+    g.add((agent, RDF.type, NFEX.Reporter))
+    g.add((agent, RDFS.label, Literal(fb.reporter)))
     if not run_exists:
+        where = f"session {fb.session}" if fb.session else f"reporter {fb.reporter}"
         g.add((run, RDF.type, NFEX.Run))
-        g.add((run, RDFS.label, Literal(f"client feedback ({'session ' + fb.session if fb.session else fb.client or 'anonymous'})")))
+        g.add((run, RDFS.label, Literal(f"client feedback ({where}{', client ' + fb.client if fb.client else ''})")))
         g.add((run, PROV.startedAtTime, Literal(now.isoformat(), datatype=XSD.dateTime)))
         g.add((run, NFEX.codeVersion, Literal(f"nfex {__version__}")))
         g.add((run, PROV.wasAssociatedWith, agent))
@@ -119,3 +123,15 @@ def measurement_graph(vocab: Vocabulary, fb: Feedback, *, run_exists: bool = Fal
     if fb.tracking_failed is not None:
         g.add((m, NFEX.trackingFailed, Literal(bool(fb.tracking_failed))))
     return g, m
+
+
+def acceptance_graph(measurement: URIRef, editor: str, now: datetime | None = None) -> rdflib.Graph:
+    """The triples by which ``editor`` admits a report as evidence (evidence/trust.py)."""
+    now = now or datetime.now(UTC)
+    g = rdflib.Graph()
+    agent = identity.reporter_iri(editor)  # the agent behind a token name, whatever its role
+    g.add((agent, RDF.type, PROV.Agent))
+    g.add((agent, RDFS.label, Literal(editor)))
+    g.add((measurement, NFEX.acceptedBy, agent))
+    g.add((measurement, NFEX.acceptedAt, Literal(now.isoformat(), datatype=XSD.dateTime)))
+    return g

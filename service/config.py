@@ -3,7 +3,8 @@
 | variable                   | meaning                                                            | default   |
 |----------------------------|--------------------------------------------------------------------|-----------|
 | NFEX_STORE                 | a folder (embedded Oxigraph) or an http(s) SPARQL endpoint          | core's    |
-| NFEX_TOKENS                | editors: ``name:token:role,…`` (role ``editor``; reads stay open)  | none      |
+| NFEX_TOKENS                | ``name:token:role,…``, role reader < reporter < editor (service/security.py) | none |
+| NFEX_CORS_ORIGINS          | origins (``https://a.example,…`` or ``*``) browser tools may read from | none      |
 | NFEX_MAX_BODY_BYTES        | largest request body (413 above)                                   | 16 MiB    |
 | NFEX_MAX_IMAGE_BYTES       | largest encoded frame                                              | 12 MiB    |
 | NFEX_MAX_PIXELS            | largest frame, width × height, read from the header before decoding | 16 Mpx    |
@@ -24,7 +25,7 @@ from pydantic_settings import BaseSettings, SettingsConfigDict
 from nfex_core.config import Settings as CoreSettings
 from nfex_core.errors import BadInput
 
-ROLES = ("editor", "reader")
+ROLES = ("reader", "reporter", "editor")  # ordered: each role may do what the ones before it may
 
 
 @dataclass(frozen=True)
@@ -44,6 +45,7 @@ class Settings(BaseSettings):
     log_level: str = "info"
     log_json: bool = True
     tokens: str = ""
+    cors_origins: str = ""
     max_body_bytes: int = 16 * 1024 * 1024
     max_image_bytes: int = 12 * 1024 * 1024
     max_pixels: int = 16_000_000
@@ -65,9 +67,21 @@ class Settings(BaseSettings):
     def parsed_tokens(self) -> dict[str, Token]:
         """``NFEX_TOKENS`` as secret → Token; a malformed entry stops start-up with a clear message."""
         out: dict[str, Token] = {}
+        names: set[str] = set()
         for item in filter(None, (x.strip() for x in self.tokens.split(","))):
             parts = item.split(":")
             if len(parts) != 3 or not all(parts) or parts[2] not in ROLES:
                 raise BadInput(f"NFEX_TOKENS entry {parts[0]!r}…: expected name:token:role with role in {ROLES}")
+            if parts[0] in names or parts[1] in out:
+                raise BadInput(f"NFEX_TOKENS entry {parts[0]!r}…: names and tokens must be unique (a name is whom writes are attributed to)")
+            names.add(parts[0])
             out[parts[1]] = Token(parts[0], parts[1], parts[2])
         return out
+
+    def parsed_cors_origins(self) -> tuple[str, ...]:
+        """``NFEX_CORS_ORIGINS`` as a tuple of origins (``scheme://host[:port]``) or ``("*",)``."""
+        origins = tuple(o.strip().rstrip("/") for o in self.cors_origins.split(",") if o.strip())
+        for o in origins:
+            if o != "*" and not o.startswith(("http://", "https://")):
+                raise BadInput(f"NFEX_CORS_ORIGINS entry {o!r}: expected an origin like https://tools.example or *")
+        return origins

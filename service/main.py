@@ -34,15 +34,17 @@ from .routes import (
     versions,
     vocabulary,
 )
+from .security import ReadOnlyCORS, TokenBook, TokenInUrlGuard
 from .sessions import SessionStore
 from .sparql_exec import QueryRunner
 
 log = logging.getLogger("nfex.service")
 
 DESCRIPTION = """nFEX tells a SLAM front end which feature extractor (α) to run, with which parameters (Θ′),
-and why. Reads are open; writes need a bearer token (security scheme `bearer`) with the editor role
-(`NFEX_TOKENS`). Every error is RFC 9457 `application/problem+json` (schema `Problem`). Writes accept
-`If-Match: "<graph version>"` and answer 412 when the head moved."""
+and why. Reads are open; feedback needs `Authorization: Bearer <token>` with the reporter role, every
+other write the editor role (`NFEX_TOKENS`; roles reader < reporter < editor). A token in the URL is
+refused. Every error is RFC 9457 `application/problem+json`. Writes accept `If-Match: "<graph version>"`
+and answer 412 when the head moved."""
 
 
 def _warm(app: FastAPI) -> None:
@@ -66,7 +68,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         core = settings.core()
         app.state.settings = settings
-        app.state.tokens = settings.parsed_tokens()
+        app.state.tokens = TokenBook(settings.parsed_tokens().values())
         app.state.metrics = metrics
         app.state.kg = kg = open_graph(core.store, settings=core)
         app.state.advisor = Advisor(kg)
@@ -95,5 +97,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     openapi.install(app)
     app.add_middleware(MethodsMiddleware)
     ui.mount(app)
+    app.add_middleware(TokenInUrlGuard, tokens=lambda: getattr(app.state, "tokens", None))
+    app.add_middleware(ReadOnlyCORS, origins=settings.parsed_cors_origins())
     app.add_middleware(ServiceMiddleware, metrics=metrics, max_body_bytes=settings.max_body_bytes)
     return app

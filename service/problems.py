@@ -26,8 +26,8 @@ def install(app: FastAPI) -> None:
     async def _nfex(request: Request, exc: NfexError) -> JSONResponse:
         if exc.status >= 500:
             log.warning("%s %s: %s", request.method, request.url.path, exc.detail)
-        headers = getattr(exc, "headers", None)  # e.g. WWW-Authenticate on a 401
-        return JSONResponse(exc.problem(), status_code=exc.status, media_type=PROBLEM_JSON, headers=headers)
+        return JSONResponse(exc.problem(), status_code=exc.status, media_type=PROBLEM_JSON,
+                            headers=dict(getattr(exc, "headers", None) or {}))
 
     @app.exception_handler(RequestValidationError)
     async def _validation(request: Request, exc: RequestValidationError) -> JSONResponse:

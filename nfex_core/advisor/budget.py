@@ -13,7 +13,7 @@ frame's size, times the client's compute-class factor. Over the budget:
 
 A rule marked ``nfex:relativeToBest`` (measured ATE over k× the best extractor's) judges against the
 best of *all* extractors; under a budget the advisor re-admits what it pruned when that extractor is
-affordable and within k× the best *affordable* extractor's mean ATE (the Decision's evidence), saying so.
+affordable and within k× the best *affordable* extractor's median ATE (the Decision's evidence), saying so.
 
 If the budget prunes every candidate, the advisor falls back to the cheapest one (a front end needs
 features every frame) and says so in the selection's warnings; NoCandidate stays for candidates the
@@ -179,7 +179,7 @@ def settle(
 ) -> BudgetOutcome:
     """The budget over every admitted candidate ``theta`` (the ``relative`` ones among them were pruned by a
     relative-accuracy rule): fit or prune each, re-admit a relative one that is affordable and within k× the
-    best affordable mean ATE (``ates``), drop the other relative ones, and when nothing is left fall back to
+    best affordable median ATE (``ates``), drop the other relative ones, and when nothing is left fall back to
     the cheapest of ``theta``. The survivors are the outcome's ``params``."""
     outcome = apply_budget(cost, terms, specs, theta, b)
     best = min((ates[x] for x in outcome.params if x in ates), default=None)
@@ -187,7 +187,7 @@ def settle(
         ok = x in outcome.params and x in ates and best is not None and terms.max_relative_ate is not None
         if ok and ates[x] <= terms.max_relative_ate * best and best > min(ates.values()):  # type: ignore[operator]
             outcome.readmitted[x] = (
-                f"re-admitted: mean ATE {ates[x]:.3g} m is within {terms.max_relative_ate:g}x the best affordable "
+                f"re-admitted: median ATE {ates[x]:.3g} m is within {terms.max_relative_ate:g}x the best affordable "
                 f"extractor's {best:.3g} m; the more accurate ones are over the budget"
             )
             outcome.warnings.append(f"{x}: {outcome.readmitted[x]}")

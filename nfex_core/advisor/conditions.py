@@ -14,10 +14,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..context import ContextEntry
+from ..errors import BadInput
 from ..kg.vocab import Vocabulary
 
 if TYPE_CHECKING:
     from .scoring import FrameState
+
+
+MIN_FRAME_SIDE = 8
 
 
 @dataclass(frozen=True)
@@ -41,6 +45,9 @@ def read_conditions(
     from ..vision.statistics import frame_statistics
 
     image = as_grey_u8(frame)
+    if min(image.shape[:2]) < MIN_FRAME_SIDE:  # a 1-pixel frame broke OpenCV's pyramids (a 500, bench/bench_fuzz.py)
+        raise BadInput(f"the frame is {image.shape[1]}×{image.shape[0]} pixels; features need at least "
+                       f"{MIN_FRAME_SIDE}×{MIN_FRAME_SIDE}")
     prev = previous.image if previous is not None else None
     stats = frame_statistics(image, prev)
     entries = tuple(estimate_context(vocab, given, image, prev, stats=stats).entries())

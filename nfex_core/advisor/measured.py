@@ -1,11 +1,11 @@
 """Θ′ from the graph's own measurements: the best measured configuration of α under E.
 
 Beyond the paper (its Θ′ is g(Θ, E) or ParamNet): where the graph holds Measurements of α under the
-request's conditions (``RuleTable.measured``: at least ``nfex:minMeasurements`` windows that share a
-known condition value with the context and contradict none, none of them failed), Θ′ is the measured
-configuration with the lowest mean ATE among them,
+request's conditions (``RuleTable.measured``: at least ``nfex:minMeasurements`` admitted windows that
+share a known condition value with the context and contradict none, none of them failed), Θ′ is the
+measured configuration with the lowest median ATE among them (evidence/aggregate.py),
 
-    Θ′ = argmin_{Θ measured for α under E} mean ATE(α, Θ | E),
+    Θ′ = argmin_{Θ measured for α under E} median ATE(α, Θ | E),
 
 and under a budget the lowest among those whose expected cost fits it (else the best, which the
 budget step then fits or prunes). This is the "dynamically optimised" configuration of the paper's
@@ -18,6 +18,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from ..cost import CostModel
+from ..evidence import Aggregate
 from ..kg.vocab import ExtractorSpec, Value
 from ..namespaces import NFEX
 from ..rules.types import Adjustment, Citation, MeasuredConfiguration
@@ -34,7 +35,7 @@ def measured_params(
     cost: CostModel | None = None,
     budget: Budget | None = None,
 ) -> tuple[dict[str, Value], list[Adjustment], MeasuredConfiguration, Citation]:
-    """Θ′ from ``ranked`` (lowest mean ATE first, each a full Θ valid in the graph; ``conditions`` names
+    """Θ′ from ``ranked`` (lowest median ATE first, each a full Θ valid in the graph; ``conditions`` names
     the context for the reason), the adjustments from the defaults citing the measurement, the
     configuration chosen and the citation (also when Θ′ is the defaults)."""
     chosen = ranked[0]
@@ -45,15 +46,14 @@ def measured_params(
             if e.ms is not None and e.ms <= budget.ms:
                 if c is not chosen:
                     note = (f"the lowest of the measured configurations whose expected {e.ms:.1f} ms fits "
-                            f"the budget {budget.ms:g} ms (the best, {chosen.mean_ate:.3f} m, does not)")
+                            f"the budget {budget.ms:g} ms (the best, {chosen.ate:.3f} m, does not)")
                 chosen = c
                 break
     theta = dict(chosen.params)
     cite = Citation(
         MEASURED_RULE,
         MEASURED_LABEL,
-        f"{chosen.iri.rsplit('#', 1)[-1]}: mean ATE {chosen.mean_ate:.3f} m over {chosen.windows} windows "
-        f"measured under {conditions}, {note}",
+        f"{chosen.iri.rsplit('#', 1)[-1]}: {_describe(chosen)} measured under {conditions}, {note}",
         "measured",
     )
     defaults = spec.defaults()
@@ -63,6 +63,10 @@ def measured_params(
         if k in defaults and v != defaults[k]
     ]
     return theta, adjustments, chosen, cite
+
+
+def _describe(c: MeasuredConfiguration) -> str:
+    return Aggregate(c.ate, c.windows, c.outliers, c.sources).describe()
 
 
 def _numeric(v: Value) -> bool:

@@ -144,7 +144,7 @@ def parameters(
     # what a relative-accuracy rule pruned is re-judged against the best *affordable* extractor
     relative = [x for x, cs in decision.pruned.items() if cs and all(c.rule in terms.relative_rules for c in cs)]
     relative = [x for x in relative if admit(x)]
-    ates = {x: e.mean_ate for x, e in decision.evidence.items() if e.mean_ate}
+    ates = {x: e.ate for x, e in decision.evidence.items() if e.ate}
     theta = {x: c.params for x, c in out.candidates.items()}
     outcome = settle(table.cost, terms, vocab.extractors, ates, theta, relative, budget)
     out.budget = outcome

@@ -5,8 +5,8 @@ on a QVGA-sized copy of the frame (count parameters scaled to its size) and scor
 
     score(α) = F_metrics(α | Θ′, E) + H·A(α),   F_metrics = Σ_x h_x(E)·m_x (+ bonus),   H = Σ_x h_x(E),
 
-A(α) = min_{y ∈ C} ATE(y) / ATE(α) ∈ (0, 1] over the candidates C with measured windows under E (the
-Decision's evidence; an unmeasured candidate has A = 0): the measured outcome weighs as much as all the
+A(α) = min_{y ∈ C} ATE(y) / ATE(α) ∈ (0, 1] over the candidates C with measured windows under E, ATE the
+median over the admitted windows (the Decision's evidence, nfex_core/evidence/; an unmeasured candidate has A = 0): the measured outcome weighs as much as all the
 frame's proxies together. Where SelectorNet is in use its probabilities, masked to C(E), replace the
 scores when its own first choice is a candidate; the candidates it was not trained on are then listed
 with probability 0 and not extracted at all.
@@ -168,8 +168,8 @@ def by_network(
 
 
 def measured_accuracy(decision: Decision, candidates: Iterable[str]) -> dict[str, float]:
-    """A(x) = min over the measured candidates of their mean ATE / x's mean ATE (module docstring)."""
-    ates = {x: e.mean_ate for x in candidates if (e := decision.evidence.get(x)) is not None and e.mean_ate}
+    """A(x) = min over the measured candidates of their median ATE / x's median ATE (module docstring)."""
+    ates = {x: e.ate for x in candidates if (e := decision.evidence.get(x)) is not None and e.ate}
     best = min(ates.values(), default=None)
     return {x: best / ate for x, ate in ates.items()} if best else {}
 

@@ -10,6 +10,7 @@ from typing import Any
 
 from ..context import ContextEntry
 from ..cost import Estimate
+from ..evidence import ROBUST
 from ..kg.vocab import Value
 from ..rules.types import Adjustment, Citation, Evidence, Factor, MeasuredConfiguration
 
@@ -46,13 +47,13 @@ class CandidateEvidence:
     def as_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {}
         if self.measured is not None:
-            out.update(mean_ate_m=self.measured.mean_ate, windows=self.measured.windows,
-                       extraction_ms=self.measured.extraction_ms)
+            out.update(self.measured.as_dict())
         if self.params_source is not None:
             out["params_source"] = self.params_source
         if self.configuration is not None:
             c = self.configuration
-            out["configuration"] = {"iri": c.iri, "mean_ate_m": round(c.mean_ate, 6), "windows": c.windows,
+            out["configuration"] = {"iri": c.iri, "ate_m": round(c.ate, 6), "aggregate": ROBUST, "windows": c.windows,
+                                    "outliers": c.outliers, "sources": len(c.sources),
                                     "because": self.configuration_because.as_dict() if self.configuration_because else None}
         if self.cost is not None:
             out["expected_ms"] = round(self.cost.ms, 3) if self.cost.ms is not None else None

@@ -4,10 +4,10 @@ Static methods — one extractor throughout — come from the graph, so an extra
 baseline at once:
 
 - ``<x>-default``: extractor x (its token in lower case, e.g. ``orb_grid``) with the graph's defaults;
-- ``<x>-dyn``: x with, per frame, the configuration of x with the lowest mean ATE measured under the frame's
+- ``<x>-dyn``: x with, per frame, the configuration of x with the lowest median ATE measured under the frame's
   known conditions (the same lookup the advisor's measured Θ′ uses, ``RuleTable.measured``; the defaults
   where nothing was measured) — the paper's "dynamically optimised" baseline;
-- ``tuned-static``: the one configuration (any extractor) with the lowest mean ATE over every measurement
+- ``tuned-static``: the one configuration (any extractor) with the lowest median ATE over every measurement
   in scope with at least ``nfex:minMeasurements`` windows and no failed one — what a careful engineer
   would put in a config file without seeing the test sequence.
 
@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..datasets.base import Frame
 from ..errors import BadInput
+from ..evidence import robust
 from ..kg.vocab import Value, Vocabulary
 from ..rules.engine import RuleTable
 from ..vo import Choice, Chooser, FrameRecord, fixed
@@ -76,7 +77,7 @@ class DynChooser:
             if ranked:
                 best = ranked[0]
                 choice = Choice(self.extractor, dict(best.params))
-                self.notes.add(f"{best.iri.rsplit('#', 1)[-1]} ({best.mean_ate:.3f} m over {best.windows} windows)")
+                self.notes.add(f"{best.iri.rsplit('#', 1)[-1]} ({best.ate:.3f} m over {best.windows} windows)")
             else:
                 choice = Choice(self.extractor, {})
                 self.notes.add("defaults (nothing measured)")
@@ -85,20 +86,20 @@ class DynChooser:
 
 
 def tuned_static(table: RuleTable) -> tuple[str, dict[str, Value], str]:
-    """The configuration with the lowest mean ATE over all measurements in scope (module docstring)."""
+    """The configuration with the lowest median ATE over all admitted measurements in scope (module docstring)."""
     best: tuple[float, str, str, dict[str, Value], int] | None = None
     for x, configurations in table.configurations.items():
-        for iri, (params, measurements) in configurations.items():
-            ates = [m.ate for m in measurements]
+        for iri, (params, observations) in configurations.items():
+            ates = [o.ate for o in observations]
             if len(ates) < table.min_measurements or any(a is None for a in ates):
                 continue
-            mean = sum(a for a in ates if a is not None) / len(ates)
-            if best is None or (mean, iri) < (best[0], best[1]):
-                best = (mean, iri, x, dict(params), len(ates))
+            value = robust([a for a in ates if a is not None]).value
+            if best is None or (value, iri) < (best[0], best[1]):
+                best = (value, iri, x, dict(params), len(ates))
     if best is None:
         raise BadInput("tuned-static needs measured configurations in the graph (run `nfex sweep` first)")
-    mean, iri, x, params, n = best
-    return x, params, f"{iri.rsplit('#', 1)[-1]}: {x}, mean ATE {mean:.3f} m over {n} windows (all conditions)"
+    value, iri, x, params, n = best
+    return x, params, f"{iri.rsplit('#', 1)[-1]}: {x}, median ATE {value:.3f} m over {n} windows (all conditions)"
 
 
 @dataclass
@@ -119,7 +120,7 @@ class AdvisorChooser:
             "pruned": [p.extractor for p in sel.pruned],
             "candidates": [{"extractor": c.extractor, "score": c.score, "f_metrics": c.evidence.f_metrics,
                             "measured_accuracy": c.evidence.measured_accuracy,
-                            "mean_ate_m": c.evidence.measured.mean_ate if c.evidence.measured else None}
+                            "ate_m": c.evidence.measured.ate if c.evidence.measured else None}
                            for c in sel.candidates],
         })
         return Choice(sel.extractor, dict(sel.params))

@@ -197,13 +197,13 @@ def selections_csv(ev: Evaluation) -> str:
     buf = io.StringIO()
     w = csv.writer(buf)
     w.writerow(["method", "budget_ms", "condition", "run", "frame", "chosen", "mode", "candidate", "score",
-                "f_metrics", "measured_accuracy", "mean_ate_m"])
+                "f_metrics", "measured_accuracy", "ate_m"])
     for r in ev.records:
         for sel in r.selections:
             for c in sel.get("candidates", []):
                 w.writerow([r.method, "" if r.budget_ms is None else r.budget_ms, r.condition, r.run, sel["frame"],
                             sel["extractor"], sel["mode"], c["extractor"], *("" if c[k] is None else c[k] for k in
-                            ("score", "f_metrics", "measured_accuracy", "mean_ate_m"))])
+                            ("score", "f_metrics", "measured_accuracy", "ate_m"))])
     return buf.getvalue()
 
 

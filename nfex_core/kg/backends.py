@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 import random
 import re
+import threading
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
@@ -99,6 +100,18 @@ class Backend(ABC):
         refuses an empty ``GRAPH`` block)."""
         return f"GRAPH <{self.graph}> {{\n{triples}\n}}" if self.graph and triples.strip() else triples
 
+    exclusive: bool = False
+    """True when this process alone writes the store (an embedded folder is locked by its process):
+    commits then need no claims (kg/claims.py), only ``write_lock``."""
+
+    @property
+    def write_lock(self) -> threading.Lock:
+        """The lock this process's writers take turns on (one per backend, whatever wraps it)."""
+        lock = self.__dict__.get("_write_lock")
+        if lock is None:
+            lock = self.__dict__.setdefault("_write_lock", threading.Lock())
+        return lock
+
     @abstractmethod
     def select(self, query: str) -> SelectResult: ...
 
@@ -130,6 +143,8 @@ class EmbeddedBackend(Backend):
         backend = cls(None)
         backend._store = store
         return backend
+
+    exclusive = True
 
     def __init__(self, path: str | Path | None, *, graph: str | None = None) -> None:
         self.location = str(path) if path is not None else ":memory:"

@@ -20,7 +20,7 @@ import time
 import uuid
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from datetime import UTC, datetime, timedelta
+from datetime import UTC, datetime
 from typing import Any, TypeVar
 
 import rdflib
@@ -32,11 +32,18 @@ from ..errors import BadInput, Conflict, NotFound, PreconditionFailed, StoreUnav
 from ..namespaces import NFEX, PREFIXES
 from .backends import Backend, SelectResult, open_backend
 from .changes import ChangeSet, graph_triples
+from .claims import META as CLAIMS_META
+from .claims import Rival, settle_update, ttl_for
+from .claims import release as release_claim
+from .claims import rivals as rival_claims
+from .claims import take as take_claim
+from .sparql_guard import refuse_unsafe_change
 from .sparql_update import change_of_update
 from .terms import Triple, n3, py, triple_n3
 from .validation import (
     Report,
     Shapes,
+    core_violations,
     extract_shapes,
     shapes_in,
     touches_shapes,
@@ -45,8 +52,8 @@ from .validation import (
 )
 from .vocab import Vocabulary
 
-META = URIRef("urn:nfex:meta")
-CLAIM_TTL_S = 60.0
+META = CLAIMS_META
+CLAIM_WAIT_S = 30.0  # the longest a writer waits on other writers' live claims (claims.py)
 HEAD = URIRef("urn:nfex:head")
 T = TypeVar("T")
 
@@ -112,7 +119,6 @@ class KnowledgeGraph:
     def __init__(self, backend: Backend, settings: Settings | None = None) -> None:
         self.backend = backend
         self.settings = settings or Settings.from_env()
-        self._write_lock = threading.Lock()
         self._cache: dict[str, tuple[int, Any]] = {}
         self._cache_lock = threading.Lock()
         self._listeners: list[Callable[[int], None]] = []
@@ -219,6 +225,14 @@ class KnowledgeGraph:
         return self._validate(effective)
 
     def _validate(self, change: ChangeSet) -> Report:
+        """The core shape first (a few ASKs: a change that would empty the graph is refused at once, not
+        after validating the whole candidate), then the shapes on the touched nodes (validation.py)."""
+        core = core_violations(self.backend, change)
+        if core:
+            return Report(False, core, "Conforms: False" + "".join(f"\nViolation: {r.line()}" for r in core))
+        return self._validate_shapes(change)
+
+    def _validate_shapes(self, change: ChangeSet) -> Report:
         shapes = self.shapes()
         if touches_shapes(change, shapes) or self.version == 0:
             candidate = self.data_graph()
@@ -258,65 +272,88 @@ class KnowledgeGraph:
         """Apply ``change`` as one transaction: validate the touched nodes, then commit atomically.
 
         Raises ValidationFailed (nothing written) when SHACL rejects the candidate state,
-        PreconditionFailed when ``expected_version`` is not the head, Conflict when other writers kept
-        winning for ``retries`` attempts. When another writer commits first, the change is re-checked
-        against the new head and retried (unless ``expected_version`` pins the head).
+        PreconditionFailed when ``expected_version`` is not the head, Conflict when other writers
+        committed first ``retries + 1`` times, or when another writer's claim on the next version stood
+        past ``CLAIM_WAIT_S``. When another writer commits first, the change is re-checked against the
+        new head and retried (unless ``expected_version`` pins the head); while another writer holds a
+        live claim (claims.py) this one waits for its commit or its expiry.
         """
         if any(isinstance(x, rdflib.BNode) for t in change.added | change.removed for x in t):
             raise BadInput("change sets must not contain blank nodes; build them with graph_triples()")
-        with self._write_lock:
-            for attempt in range(retries + 1):
+        refuse_unsafe_change(change)
+        with self.backend.write_lock:
+            lost = 0
+            waited = 0.0
+            checked: tuple[int, ChangeSet, Report] | None = None
+            while True:
                 head = self.version
                 if expected_version is not None and expected_version != head:
                     raise PreconditionFailed(
                         f"the graph is at version {head}, not {expected_version}; re-read and retry",
                         current_version=head,
                     )
-                effective = self._effective(change)
-                if effective.empty:
-                    return CommitResult(version=head, changed=False)
-                report = self._validate(effective)
-                if not report.conforms:
-                    raise ValidationFailed(report.violations, report.text, current_version=head)
-                if self._try_commit(effective, head, author, message):
+                if checked is None or checked[0] != head:
+                    core = core_violations(self.backend, change)  # before the costlier steps: a change that
+                    if core:  # would empty the graph (a rollback to 0) is refused in a few ASKs
+                        raise ValidationFailed(core, "Conforms: False", current_version=head)
+                    effective = self._effective(change)
+                    if effective.empty:
+                        return CommitResult(version=head, changed=False)
+                    report = self._validate_shapes(effective)
+                    if not report.conforms:
+                        raise ValidationFailed(report.violations, report.text, current_version=head)
+                    checked = (head, effective, report)
+                _, effective, report = checked
+                outcome = self._try_commit(effective, head, author, message)
+                if outcome is None:
                     for listener in self._listeners:
                         listener(head + 1)
                     return CommitResult(
                         version=head + 1, changed=True, added=len(effective.added), removed=len(effective.removed), report=report
                     )
-                time.sleep(random.uniform(0.005, 0.05) * (attempt + 1))
-            raise Conflict(
-                f"other writers kept committing first ({retries + 1} attempts); the change was not applied, retry",
-                current_version=self.version,
-            )
+                if isinstance(outcome, Rival):
+                    if waited + outcome.left_s > CLAIM_WAIT_S:
+                        raise Conflict(
+                            f"another writer claimed version {head + 1} and has not committed it ({outcome.iri}, "
+                            f"{outcome.left_s:.1f} s left of its claim); the change was not applied, retry — "
+                            "a claim whose writer died expires by itself",
+                            current_version=self.version,
+                        )
+                    pause = min(outcome.left_s + 0.05, 0.25)
+                    time.sleep(pause)
+                    waited += pause
+                    continue
+                lost += 1
+                if lost > retries:
+                    raise Conflict(
+                        f"other writers committed first {lost} times in a row (the head moved to version {self.version}); "
+                        "the change was not applied, retry",
+                        current_version=self.version,
+                    )
+                time.sleep(random.uniform(0.005, 0.05) * lost)
 
-    def _try_commit(self, change: ChangeSet, head: int, author: str, message: str) -> bool:
-        """Claim version head+1, and write it if the claim is uncontested; False if another writer won.
-
-        Mutual exclusion needs only that each insert and each read is atomic and sees what committed
-        before it: every writer inserts its claim, *then* reads all claims for the version. If two
-        writers both found theirs alone, each read would precede the other's insert, which precede
-        their own reads — a cycle. (A SPARQL server's DELETE/INSERT … WHERE is no compare-and-swap:
-        Oxigraph 0.5 evaluates its WHERE on a snapshot, and two guarded updates can both pass.)
-        Claims older than CLAIM_TTL_S — a writer that died between claim and commit — are ignored.
-        """
+    def _try_commit(self, change: ChangeSet, head: int, author: str, message: str) -> Rival | bool | None:
+        """Write version head+1 if no other writer gets there first: None when committed, a Rival when
+        another writer's live claim stands in the way, False when the head moved (claims.py)."""
         new = head + 1
         commit_id = uuid.uuid4().hex
-        claim = URIRef(f"urn:nfex:claim:{new}:{commit_id}")
-        now = datetime.now(UTC)
-        stamp = Literal(now.isoformat(), datatype=XSD.dateTime)
-        self.backend.update(
-            f"{_prefix_block()}INSERT DATA {{ GRAPH {n3(META)} {{ {n3(claim)} nfex:claimsVersion {new} ; nfex:claimedAt {n3(stamp)} }} }}"
-        )
-        cutoff = Literal((now - timedelta(seconds=CLAIM_TTL_S)).isoformat(), datatype=XSD.dateTime)
-        rivals = self.select(
-            f"SELECT ?c WHERE {{ GRAPH {n3(META)} {{ ?c nfex:claimsVersion {new} ; nfex:claimedAt ?at }} "
-            f"FILTER (?c != {n3(claim)} && ?at > {n3(cutoff)}) }}"
-        ).rows
-        if rivals or self.version != head:
-            self.backend.update(f"DELETE WHERE {{ GRAPH {n3(META)} {{ {n3(claim)} ?p ?o }} }}")
-            return False
+        if self.backend.exclusive:  # one process owns the store; its writers take turns on write_lock
+            self._write_version(change, head, new, author, message, commit_id)
+            return None if self._committed(new, commit_id) else False
+        ttl = ttl_for(len(change.added) + len(change.removed))
+        started = time.monotonic()
+        claim = take_claim(self.backend, new, ttl)
+        rivals = rival_claims(self.backend, claim)
+        moved = self.version != head
+        if rivals or moved or time.monotonic() - started > ttl / 2:
+            release_claim(self.backend, claim)
+            if moved:
+                return False
+            return max(rivals, key=lambda r: r.left_s) if rivals else Rival(str(claim.iri), 0.0)
         self._write_version(change, head, new, author, message, commit_id)
+        return None if self._committed(new, commit_id) else False
+
+    def _committed(self, new: int, commit_id: str) -> bool:
         return self.ask(f"ASK {{ GRAPH {n3(META)} {{ {n3(version_iri(new))} nfex:commitId {n3(Literal(commit_id))} }} }}")
 
     def _write_version(self, change: ChangeSet, head: int, new: int, author: str, message: str, commit_id: str) -> None:
@@ -363,7 +400,7 @@ class KnowledgeGraph:
         ]
         guard = f"GRAPH {n3(META)} {{ {n3(HEAD)} nfex:versionNumber {head} }}"
         meta_block = "\n".join(triple_n3(t) for t in meta)
-        tail = [f"DELETE {{ GRAPH {n3(META)} {{ ?c ?p ?o }} }} WHERE {{ GRAPH {n3(META)} {{ ?c nfex:claimsVersion ?n ; ?p ?o . FILTER (?n <= {new}) }} }}"]
+        tail = [settle_update(new)]  # claims for this and earlier versions are settled now
         if staged:
             staged_added, staged_removed = staging_graph(commit_id, "added"), staging_graph(commit_id, "removed")
             removed, added = "?rs ?rp ?ro .", "?as ?ap ?ao ."

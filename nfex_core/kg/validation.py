@@ -15,6 +15,12 @@ parameter names per extractor — the incoming edges along the predicates those 
 this gives the same verdict as validating the whole candidate graph.
 
 A change that edits the shapes themselves is validated against the whole candidate graph.
+
+One shape is global rather than local: ``nfex:CoreShape`` (rules/shapes/integrity.ttl) says each of
+its target classes keeps an instance. A change that removes class memberships can break it without
+touching the class node, so ``core_violations`` checks it on every commit — with the targets of the
+head's shape and of the candidate's, and refusing a change that removes the shape itself — by asking
+the store whether an instance survives the change.
 """
 from __future__ import annotations
 
@@ -313,3 +319,31 @@ def validate_change(backend: Backend, change: ChangeSet, shapes: Shapes) -> Repo
     results, text = _run_pyshacl(g, shapes, focus)
     violations = [r for r in results if r.severity == "Violation"]
     return Report(not violations, results, text, focus_nodes=len(focus), data_triples=len(g))
+
+
+CORE_SHAPE = NFEX.CoreShape
+CORE_MESSAGE = "No instance of {} would remain: the ontology's core cannot be removed."
+
+
+def core_violations(backend: Backend, change: ChangeSet) -> list[ValidationResult]:
+    """``nfex:CoreShape`` on the candidate state: every target class of the head's shape or the
+    candidate's keeps an instance, and the shape itself stays (module docstring)."""
+    head = {r["c"] for r in backend.select(f"SELECT ?c WHERE {{ {n3(CORE_SHAPE)} {n3(SH.targetNode)} ?c }}").rows}
+    if not head and not any(s == CORE_SHAPE for s, _, _ in change.added):
+        return []  # a graph without the core shape (being seeded, or an older graph)
+    out: list[ValidationResult] = []
+    if (CORE_SHAPE, RDF.type, SH.NodeShape) in change.removed and (CORE_SHAPE, RDF.type, SH.NodeShape) not in change.added:
+        out.append(ValidationResult(str(CORE_SHAPE), str(CORE_SHAPE), "the core shape itself cannot be removed"))
+    targets = head | {o for s, p, o in change.added if s == CORE_SHAPE and p == SH.targetNode}
+    untyped: dict[Node, set[Node]] = {}
+    for s, p, o in change.removed:
+        if p == RDF.type and o in targets:
+            untyped.setdefault(o, set()).add(s)
+    for cls, gone in sorted(untyped.items(), key=lambda kv: str(kv[0])):
+        if any(t[1] == RDF.type and t[2] == cls for t in change.added):
+            continue
+        others = " ".join(n3(x) for x in gone if isinstance(x, URIRef))
+        exclude = f"FILTER (?x NOT IN ({', '.join(n3(x) for x in gone if isinstance(x, URIRef))}))" if others else ""
+        if not backend.ask(f"ASK {{ ?x {n3(RDF.type)} {n3(cls)} . {exclude} }}"):
+            out.append(ValidationResult(str(cls), str(CORE_SHAPE), CORE_MESSAGE.format(cls)))
+    return out

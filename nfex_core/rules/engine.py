@@ -5,8 +5,11 @@ evaluates every SPARQL pruning rule once for all contexts (one query per rule, s
 every DSL statement and context shape (shapes.py) for all contexts, and stores a ``Decision`` per context: the candidates, the pruned
 extractors with the rules that pruned them, the parameter factors f_kj, the metric weights h_x, the
 preference bonuses, the context shapes in force (``require`` statements are compiled to them), and the measured evidence per extractor. A
-request then pays one dictionary lookup. The measured configurations of each extractor under a context
-(``RuleTable.measured``: the graph's answer to "which Θ of α had the lowest mean ATE here?") are ranked
+request then pays one dictionary lookup. Measurements are read once per compile (evidence/observations.py)
+and only those the trust rule admits count (evidence/trust.py): the SPARQL rules run on the evidence view
+(evidence/view.py), the evidence per extractor, the measured configurations and the cost model use the
+admitted observations, each aggregated with the median (evidence/aggregate.py). The measured configurations of each extractor under a context
+(``RuleTable.measured``: the graph's answer to "which Θ of α had the lowest median ATE here?") are ranked
 on a context's first request and kept. ``compile_table`` runs again when the graph version changes.
 The same step fits the cost model (nfex_core/cost.py) and reads the budget terms, so a request's
 budget check (advisor/budget.py) costs arithmetic only.
@@ -21,13 +24,15 @@ import itertools
 import logging
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 from rdflib.term import URIRef
 
 from ..cost import BudgetTerms, CostModel, fit_cost_model, measured_settings
 from ..errors import NfexError
+from ..evidence import Admission, Observation, TrustPolicy, admit, read_observations, robust
+from ..evidence.view import evidence_view
 from ..kg.terms import py
 from ..kg.vocab import ExtractorSpec, Value
 from ..motion import StepChecks, load_step_checks
@@ -41,16 +46,6 @@ if TYPE_CHECKING:
 
 log = logging.getLogger("nfex.rules")
 
-
-@dataclass(frozen=True)
-class _Measured:
-    """One Measurement as the engine reads it (once per graph version, ``_measurements``)."""
-
-    extractor: str
-    configuration: str
-    conditions: frozenset[tuple[str, str]]  # (dimension, value) of every condition the measurement was under
-    ate: float | None  # None: the window failed
-    extraction_ms: float | None
 
 
 def _citation(s: CompiledStatement) -> Citation:
@@ -68,26 +63,53 @@ class RuleTable:
     compile_ms: float
     cost: CostModel = field(default_factory=CostModel)
     budget_terms: BudgetTerms = field(default_factory=BudgetTerms)
-    step_checks: dict[str, StepChecks] = field(default_factory=dict)  # agent → front-end checks (motion.py)
-    # extractor → configuration IRI → (its full Θ, its measurements); see ``measured``
-    configurations: dict[str, dict[str, tuple[dict[str, Value], list[_Measured]]]] = field(default_factory=dict)
+    # extractor → configuration IRI → (its full Θ, its admitted observations); see ``measured``
+    configurations: dict[str, dict[str, tuple[dict[str, Value], list[Observation]]]] = field(default_factory=dict)
     min_measurements: int = 3
+    # extractor → condition set → admitted observations (the evidence per context, ``decide``)
+    observed: dict[str, dict[frozenset[tuple[str, str]], list[Observation]]] = field(default_factory=dict)
+    admission: Admission = field(default_factory=Admission)
+    step_checks: dict[str, StepChecks] = field(default_factory=dict)  # agent → front-end checks (motion.py)
     _measured: dict[ContextKey, dict[str, tuple[MeasuredConfiguration, ...]]] = field(default_factory=dict, repr=False)
+    _evidenced: set[ContextKey] = field(default_factory=set, repr=False)
 
     def key(self, context: Mapping[str, str | None]) -> ContextKey:
         return tuple(context.get(d) for d in self.dimensions)
 
     def decide(self, context: Mapping[str, str | None]) -> Decision:
-        """The decision for a context (values must be checked against the vocabulary beforehand)."""
-        return self.decisions[self.key(context)]
+        """The decision for a context (values must be checked against the vocabulary beforehand); its
+        evidence is aggregated on the context's first request and kept."""
+        key = self.key(context)
+        decision = self.decisions[key]
+        if key not in self._evidenced:
+            known = {d: v for d, v in zip(self.dimensions, key, strict=True) if v is not None}
+            decision = replace(decision, evidence=self._evidence(known))
+            self.decisions[key] = decision
+            self._evidenced.add(key)
+        return decision
+
+    def _evidence(self, known: dict[str, str]) -> dict[str, Evidence]:
+        out: dict[str, Evidence] = {}
+        if not known:
+            return out
+        for x, groups in self.observed.items():
+            counted = [o for obs in groups.values() if obs[0].counts_under(known) for o in obs]
+            if not counted:
+                continue
+            ates = [o.ate for o in counted if o.ate is not None]
+            costs = [o.extraction_ms for o in counted if o.extraction_ms is not None]
+            agg = robust(ates) if ates else None
+            out[x] = Evidence(agg.value if agg else None, len(counted), robust(costs).value if costs else None,
+                              agg.outliers if agg else 0, tuple(sorted({o.source for o in counted})))
+        return out
 
     def measured(self, context: Mapping[str, str | None]) -> dict[str, tuple[MeasuredConfiguration, ...]]:
-        """Per extractor, its measured configurations under ``context``, lowest mean ATE first.
+        """Per extractor, its measured configurations under ``context``, lowest median ATE first.
 
-        A measurement counts when it shares at least one of the context's known condition values and
-        contradicts none (a window measured under light = dark says nothing about a bright frame). A
-        configuration is listed when at least ``nfex:minMeasurements`` measurements count and none of
-        them failed (a configuration that lost a window here is not a candidate for the best one)."""
+        A measurement counts when it is admitted (evidence/trust.py), shares at least one of the
+        context's known condition values and contradicts none. A configuration is listed when at least
+        ``nfex:minMeasurements`` counting windows have an ATE and none of them failed (a configuration
+        that lost a window here is not a candidate for the best one)."""
         key = self.key(context)
         found = self._measured.get(key)
         if found is not None:
@@ -96,65 +118,27 @@ class RuleTable:
         found = {}
         for x, configurations in self.configurations.items():
             ranked = []
-            for iri, (params, measurements) in configurations.items():
-                ates: list[float | None] = [
-                    m.ate for m in measurements
-                    if any(known.get(d) == v for d, v in m.conditions) and all(known.get(d, v) == v for d, v in m.conditions)
-                ]
-                if len(ates) < self.min_measurements or any(a is None for a in ates):
+            for iri, (params, observations) in configurations.items():
+                counted = [o for o in observations if o.counts_under(known)]
+                ates = [o.ate for o in counted if o.ate is not None]
+                if len(ates) < self.min_measurements or any(o.failed for o in counted):
                     continue
-                ranked.append(MeasuredConfiguration(iri, params, sum(ates) / len(ates), len(ates)))  # type: ignore[arg-type]
+                agg = robust(ates, (o.source for o in counted))
+                ranked.append(MeasuredConfiguration(iri, params, agg.value, agg.windows, agg.outliers, agg.sources))
             if ranked:
-                found[x] = tuple(sorted(ranked, key=lambda c: (c.mean_ate, c.iri)))
+                found[x] = tuple(sorted(ranked, key=lambda c: (c.ate, c.iri)))
         self._measured[key] = found
         return found
 
 
-def _measurements(kg: KnowledgeGraph) -> list[_Measured]:
-    """Every Measurement: extractor, configuration, conditions, ATE (absent: failed), extraction ms."""
-    per: dict[str, tuple[str, str, set[tuple[str, str]], float | None, float | None]] = {}
-    for r in kg.select(
-        """SELECT ?xname ?cfg ?m ?dim ?val ?ate ?ms WHERE {
-            ?m a nfex:Measurement ; sosa:usedProcedure ?cfg .
-            ?cfg nfex:ofExtractor/nfex:token ?xname .
-            OPTIONAL { ?m nfex:underCondition ?c . ?c nfex:token ?val ; nfex:inDimension/nfex:token ?dim . }
-            OPTIONAL { ?m nfex:ateRmse ?ate } OPTIONAL { ?m nfex:extractionMs ?ms }
-        }"""
-    ).rows:
-        entry = per.setdefault(str(r["m"]), (
-            str(r["xname"]), str(r["cfg"]), set(),
-            float(py(r["ate"])) if "ate" in r else None, float(py(r["ms"])) if "ms" in r else None,
-        ))
-        if "dim" in r:
-            entry[2].add((str(r["dim"]), str(r["val"])))
-    return [_Measured(x, cfg, frozenset(conds), ate, ms) for x, cfg, conds, ate, ms in per.values()]
-
-
-def _evidence(measurements: list[_Measured]) -> dict[tuple[str, str, str], tuple[float | None, int, float | None]]:
-    """(extractor, dimension, value) → (mean ATE, windows, mean extraction ms) over the measurements under
-    that value; the means over those that have one (a failed window has no ATE)."""
-    sums: dict[tuple[str, str, str], list[float]] = {}
-    for m in measurements:
-        for d, v in m.conditions:
-            acc = sums.setdefault((m.extractor, d, v), [0, 0.0, 0, 0.0, 0])
-            acc[0] += 1
-            if m.ate is not None:
-                acc[1] += m.ate
-                acc[2] += 1
-            if m.extraction_ms is not None:
-                acc[3] += m.extraction_ms
-                acc[4] += 1
-    return {k: (a[1] / a[2] if a[2] else None, int(a[0]), a[3] / a[4] if a[4] else None) for k, a in sums.items()}
-
-
 def _configurations(
-    measurements: list[_Measured], settings: Mapping[str, Mapping[str, Value]], extractors: Mapping[str, ExtractorSpec]
-) -> dict[str, dict[str, tuple[dict[str, Value], list[_Measured]]]]:
+    observations: list[Observation], settings: Mapping[str, Mapping[str, Value]], extractors: Mapping[str, ExtractorSpec]
+) -> dict[str, dict[str, tuple[dict[str, Value], list[Observation]]]]:
     """Per extractor and configuration: its full Θ (resolved against the graph's ranges once, here) and
-    its measurements. A configuration the current ranges no longer allow is left out."""
-    out: dict[str, dict[str, tuple[dict[str, Value], list[_Measured]]]] = {}
+    its observations. A configuration the current ranges no longer allow is left out."""
+    out: dict[str, dict[str, tuple[dict[str, Value], list[Observation]]]] = {}
     invalid: set[str] = set()
-    for m in measurements:
+    for m in observations:
         spec = extractors.get(m.extractor)
         if spec is None or m.configuration in invalid:
             continue
@@ -181,15 +165,6 @@ def _min_measurements(kg: KnowledgeGraph) -> int:
     return int(py(rows[0]["n"])) if rows else 3
 
 
-def _combine(items: list[tuple[float | None, int, float | None]]) -> Evidence:
-    n = sum(w for _, w, _ in items)
-    ates = [(m, w) for m, w, _ in items if m is not None]
-    costs = [(c, w) for _, w, c in items if c is not None]
-    mean = sum(m * w for m, w in ates) / sum(w for _, w in ates) if ates else None
-    cost = sum(c * w for c, w in costs) / sum(w for _, w in costs) if costs else None
-    return Evidence(mean, n, cost)
-
-
 def compile_table(kg: KnowledgeGraph) -> RuleTable:
     """Evaluate every rule and statement for every context of the graph's condition space."""
     t0 = time.perf_counter()
@@ -201,10 +176,16 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
 
     errors: list[str] = []
     rules = pruning.load_rules(kg)
+    observations = read_observations(kg)
+    admission = admit(observations, TrustPolicy.load(kg))
+    evidence = admission.select(observations)
+    value_iris = {(d, v): str(spec.iri) for d in dims for v, spec in vocab.dimensions[d].values.items()}
+    view = evidence_view(kg, admission, evidence, {x: str(e.iri) for x, e in vocab.extractors.items()}, value_iris) \
+        if rules else kg.backend
     pruned_by_rules: dict[int, list[tuple[str, Citation]]] = {}
     for rule in rules:
         try:
-            hits = pruning.evaluate(kg, rule, dims, iris)
+            hits = pruning.evaluate(view, rule, dims, iris)
         except Exception as e:  # a broken rule must not take selection down; it is reported
             errors.append(f"{rule.iri}: {e}")
             log.warning("pruning rule %s failed: %s", rule.iri, e)
@@ -218,9 +199,7 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
     statements = load_statements(kg, vocab)
     shapes, shape_errors = load_context_shapes(kg, vocab, statements)
     errors += shape_errors
-    measurements = _measurements(kg)
     absent = backend_citations(kg, vocab.extractors)
-    evidence = _evidence(measurements)
     decisions: dict[ContextKey, Decision] = {}
     for i, key in enumerate(keys):
         context = dict(zip(dims, key, strict=True))
@@ -251,11 +230,6 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
                 for x in vocab.extractors:
                     if sh.concerns(x):
                         pruned.setdefault(x, []).append(sh.citation)
-        known = [(d, v) for d, v in context.items() if v is not None]
-        ev = {
-            x: _combine([evidence[(x, d, v)] for d, v in known if (x, d, v) in evidence])
-            for x in vocab.extractors
-        }
         decisions[key] = Decision(
             context=context,
             candidates=tuple(x for x in vocab.extractors if x not in pruned),
@@ -263,19 +237,21 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
             factors=factors,
             weights=weights,
             bonuses=bonuses,
-            evidence={x: e for x, e in ev.items() if e.windows},
             shapes=in_force,
         )
     settings = measured_settings(kg)
-    cost = fit_cost_model(kg, vocab.extractors, settings)
+    cost = fit_cost_model(kg, vocab.extractors, settings, evidence)
     budget_terms = BudgetTerms.load(kg)
     step_checks = load_step_checks(kg)
-    configurations = _configurations(measurements, settings, vocab.extractors) if _measured_rule_enabled(kg) else {}
+    configurations = _configurations(evidence, settings, vocab.extractors) if _measured_rule_enabled(kg) else {}
+    observed: dict[str, dict[frozenset[tuple[str, str]], list[Observation]]] = {}
+    for o in evidence:
+        observed.setdefault(o.extractor, {}).setdefault(o.conditions, []).append(o)
     least = _min_measurements(kg)
     ms = (time.perf_counter() - t0) * 1000
     log.info("compiled %d contexts, %d rules, %d statements at graph version %d in %.0f ms", len(keys), len(rules), len(statements), version, ms)
-    return RuleTable(version, dims, decisions, rules, statements, errors, ms, cost, budget_terms, step_checks,
-                     configurations, least)
+    return RuleTable(version, dims, decisions, rules, statements, errors, ms, cost, budget_terms,
+                     configurations, least, observed, admission, step_checks=step_checks)
 
 
 BACKEND_RULE = "https://w3id.org/nfex#rule_backend_available"

@@ -27,7 +27,9 @@ from rdflib.term import Literal, URIRef
 from ..config import Settings
 from ..errors import BadInput, ParseError
 from ..identity import rule_iri
+from ..kg.backends import Backend
 from ..kg.changes import read_rdf_file
+from ..kg.sparql_guard import refuse_unsafe_query
 from ..kg.terms import n3, py
 from ..namespaces import NFEX
 
@@ -127,7 +129,8 @@ def contextualise(query: str, dimensions: Sequence[str], contexts: Sequence[Sequ
 
 
 def check_rule(query: str, dimensions: Sequence[str]) -> None:
-    """Refuse a rule that does not parse or does not return ?extractor and ?reason (before it is stored)."""
+    """Refuse a rule that does not parse, calls SERVICE, or does not return ?extractor and ?reason (before it is stored)."""
+    refuse_unsafe_query(query)
     try:
         probe = ox.Store().query(contextualise(query, dimensions, [[None] * len(dimensions)]))
     except SyntaxError as e:
@@ -141,10 +144,12 @@ def check_rule(query: str, dimensions: Sequence[str]) -> None:
 
 
 def evaluate(
-    kg: KnowledgeGraph, rule: SparqlRule, dimensions: Sequence[str], contexts: Sequence[Sequence[URIRef | None]]
+    backend: Backend, rule: SparqlRule, dimensions: Sequence[str], contexts: Sequence[Sequence[URIRef | None]]
 ) -> dict[int, list[tuple[URIRef, str]]]:
-    """For each context index, the extractors ``rule`` prunes with their reasons."""
-    rows = kg.backend.select(contextualise(rule.query, dimensions, contexts)).rows
+    """For each context index, the extractors ``rule`` prunes with their reasons, evaluated on ``backend``
+    (the rule engine passes the evidence view, evidence/view.py)."""
+    refuse_unsafe_query(rule.query)  # a rule stored by a raw update was never checked
+    rows = backend.select(contextualise(rule.query, dimensions, contexts)).rows
     out: dict[int, list[tuple[URIRef, str]]] = {}
     for r in rows:
         if "extractor" not in r or not isinstance(r["extractor"], URIRef):

@@ -23,6 +23,7 @@ from typing import Any
 from pyshacl.rdfutil.compare import compare_literal
 from rdflib.term import Literal, URIRef
 
+from ..evidence.aggregate import ROBUST
 from ..kg.vocab import ExtractorSpec, ParameterSpec, Value
 
 ContextKey = tuple[str | None, ...]
@@ -145,11 +146,18 @@ class CompiledShape:
 
 @dataclass(frozen=True)
 class Evidence:
-    """What the graph has measured for an extractor under the context's known conditions."""
+    """What the graph has measured (and admitted) for an extractor under the context's known conditions: the
+    windows that count there (``Observation.counts_under``), the median ATE and extraction time over them."""
 
-    mean_ate: float | None
+    ate: float | None
     windows: int
     extraction_ms: float | None = None
+    outliers: int = 0  # windows whose ATE lies over 3 scaled MADs from the median (aggregate.py)
+    sources: tuple[str, ...] = ()  # sweep runs and reporters behind the windows
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"ate_m": self.ate, "aggregate": ROBUST, "windows": self.windows, "outliers": self.outliers,
+                "sources": len(self.sources), "source_iris": list(self.sources[:10]), "extraction_ms": self.extraction_ms}
 
 
 @dataclass(frozen=True)
@@ -158,8 +166,10 @@ class MeasuredConfiguration:
 
     iri: str
     params: Mapping[str, Value]  # the full Θ: OpenCV argument names → values, valid in the graph's ranges
-    mean_ate: float
+    ate: float  # the median ATE over the windows that count
     windows: int  # measurements that count under the context
+    outliers: int = 0
+    sources: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)

@@ -1,30 +1,38 @@
-"""``POST /v1/feedback``: what a client measured with a selection becomes a Measurement in the graph."""
+"""``/v1/feedback``: what a client measured with a selection becomes a report in the graph (reporter
+token); it steers selections once corroborated by ``nfex:minSources`` reporters or accepted by an editor."""
 from __future__ import annotations
 
+import re
 from datetime import UTC, datetime
+from typing import Any
 
-from fastapi import APIRouter
+from fastapi import APIRouter, Path, Query
 from fastapi.responses import JSONResponse
 
-from nfex_core.feedback import Feedback, feedback_run_iri, measurement_graph
+from nfex_core.errors import NotFound
+from nfex_core.evidence import TrustPolicy, admit, read_observations
+from nfex_core.feedback import Feedback, acceptance_graph, feedback_run_iri, measurement_graph
+from nfex_core.namespaces import NFEX
 
-from ..deps import KGDep, SessionsDep
+from ..deps import EditorDep, IfMatchDep, KGDep, ReporterDep, SessionsDep
 from ..schemas import PROBLEM_RESPONSES, FeedbackRequest, WriteResult
 
-router = APIRouter(prefix="/v1", tags=["feedback"])
+router = APIRouter(prefix="/v1", tags=["feedback"], responses=PROBLEM_RESPONSES)
+REPORT_ID = re.compile(r"^measurement_[0-9a-f]{32}$")
 
 
 @router.post(
     "/feedback",
     status_code=201,
-    summary="Report what a selection achieved (ATE/RPE over a window, tracking loss, inliers)",
-    description="Stored as a SHACL-checked nfex:Measurement with PROV provenance; the measurement-based "
-    "pruning rules count it from this commit on. Open to every client (no token): feedback is data, "
-    "not an edit of the rules.",
+    summary="Report what a selection achieved (ATE/RPE over a window, tracking loss, inliers) — reporter token",
+    description="Stored as a SHACL-checked nfex:Measurement with PROV provenance, attributed to the token's "
+    "holder (prov:wasAttributedTo). It is a *report*: it steers selections (measured rules, measured Θ′, "
+    "measured accuracy, cost model) once nfex:minSources distinct reporters reported the same configuration "
+    "under the same conditions, or an editor accepted it (POST /v1/feedback/{id}/accept). Needs the reporter role.",
     response_model=WriteResult,
     responses=PROBLEM_RESPONSES,
 )
-def feedback(body: FeedbackRequest, kg: KGDep, sessions: SessionsDep) -> JSONResponse:
+def feedback(body: FeedbackRequest, kg: KGDep, sessions: SessionsDep, token: ReporterDep) -> JSONResponse:
     context = {k: v for k, v in body.context.items() if v is not None}
     client = body.client
     if body.session_id:
@@ -32,10 +40,43 @@ def feedback(body: FeedbackRequest, kg: KGDep, sessions: SessionsDep) -> JSONRes
         context = {**session.context, **context}
         client = client or session.client
     fb = Feedback(**{**body.model_dump(exclude={"session_id", "context", "client"}), "context": context,
-                     "client": client, "session": body.session_id})
+                     "client": client, "session": body.session_id, "reporter": token.name})
     vocab = kg.vocabulary()
     now = datetime.now(UTC)
     run_exists = kg.ask(f"ASK {{ <{feedback_run_iri(fb, now)}> a nfex:Run }}")
     graph, iri = measurement_graph(vocab, fb, run_exists=run_exists, now=now)
-    result = kg.add(graph, author=f"feedback:{client or 'anonymous'}", message=f"feedback: {fb.extractor} on {fb.sequence}")
+    result = kg.add(graph, author=token.name, message=f"feedback: {fb.extractor} on {fb.sequence}")
     return WriteResult.of(result, iri=str(iri)).response(status=201)
+
+
+@router.get("/feedback", summary="Client reports and whether each steers selections yet (and why, or why not)")
+def reports(kg: KGDep, status: str | None = Query(None, pattern="^(admitted|quarantined)$"),
+            limit: int = Query(100, ge=1, le=10000)) -> JSONResponse:
+    observations = [o for o in read_observations(kg) if o.reporter is not None]
+    policy = TrustPolicy.load(kg)
+    admission = admit(observations, policy)
+    items: list[dict[str, Any]] = []
+    for o in sorted(observations, key=lambda o: o.iri):
+        admitted = o.iri in admission.admitted
+        if status is not None and (status == "admitted") != admitted:
+            continue
+        items.append({"id": o.iri.rsplit("#", 1)[-1], "iri": o.iri, "extractor": o.extractor, "configuration": o.configuration,
+                      "conditions": {d: v for d, v in sorted(o.conditions)}, "reporter": o.reporter, "ate_m": o.ate,
+                      "status": "admitted" if admitted else "quarantined",
+                      "because": admission.admitted.get(o.iri) or admission.quarantined.get(o.iri)})
+        if len(items) >= limit:
+            break
+    return JSONResponse({"min_sources": policy.min_sources, "reports": items}, headers={"ETag": f'"{kg.version}"'})
+
+
+@router.post("/feedback/{report_id}/accept", summary="Admit a report as evidence before it is corroborated (editor)")
+def accept(kg: KGDep, token: EditorDep, expected: IfMatchDep,
+           report_id: str = Path(..., max_length=64, description="The report's id: measurement_<32 hex digits>")) -> JSONResponse:
+    if not REPORT_ID.match(report_id):
+        raise NotFound(f"no report {report_id!r}; ids look like measurement_<32 hex digits> (GET /v1/feedback)")
+    iri = NFEX[report_id]
+    if not kg.ask(f"ASK {{ <{iri}> a nfex:Measurement ; prov:wasAttributedTo ?who }}"):
+        raise NotFound(f"no report {report_id!r} (GET /v1/feedback lists them)")
+    result = kg.add(acceptance_graph(iri, token.name), author=token.name, message=f"accept report {report_id}",
+                    expected_version=expected)
+    return WriteResult.of(result, iri=str(iri)).response()

@@ -21,6 +21,7 @@ from rdflib.namespace import RDF, RDFS
 
 from nfex_core.errors import BadInput, ParseError
 from nfex_core.kg.backends import GRAPH_FORMATS, RESULT_FORMATS
+from nfex_core.kg.sparql_guard import refuse_unsafe_query
 from nfex_core.kg.sparql_query import at_user_lines, classify, with_prefixes
 
 from ..bodies import media_type, utf8_text
@@ -103,6 +104,7 @@ async def _answer(request: Request, query: str | None, accept: str | None, param
     if not query.strip():
         raise BadInput("the query is empty")
     form = classify(query)
+    refuse_unsafe_query(query)
     asked = [v for name in FORMAT_PARAMS for v in params.get(name, [])]
     media = from_format_params(asked, form) or negotiate(accept, form)
     try:

@@ -53,7 +53,8 @@ class FeedbackRequest(BaseModel):
     session_id: str | None = Field(None, description="The session the frames came from; its context fills gaps.")
     sequence: str = Field("client-stream", min_length=1, max_length=200, description="Sequence name, e.g. kitti/01.")
     dataset: str | None = Field(None, max_length=200)
-    client: str | None = Field(None, max_length=200)
+    client: str | None = Field(None, max_length=200, description="The device or program that measured (a label on the run; "
+                               "the report is attributed to the token's holder).")
     window_start: int | None = Field(None, ge=0)
     window_end: int | None = Field(None, ge=1)
     frames: int | None = Field(None, ge=1, description="Frames in the window (default window_end - window_start).")

@@ -23,7 +23,7 @@ from nfex_client import (
     matcher_from_selection,
 )
 
-from tests.service.conftest import EDITOR, Service
+from tests.service.conftest import EDITOR, REPORTER, Service
 
 ROOT = Path(__file__).resolve().parent.parent.parent
 
@@ -75,7 +75,7 @@ def test_editing_with_a_token(service: Service) -> None:
 
 
 def test_sessions_and_feedback(service: Service) -> None:
-    with NfexClient(service.url) as nfex:
+    with NfexClient(service.url, token=REPORTER) as nfex:
         s = nfex.open_session({"agent": "car"}, client="client-test")
         frame = np.random.default_rng(2).integers(0, 255, (120, 160), dtype=np.uint8)
         try:

@@ -7,7 +7,7 @@ from typing import Any
 
 import pytest
 
-from tests.service.conftest import Service
+from tests.service.conftest import REPORTER, Service
 
 ROOT = Path(__file__).resolve().parent.parent.parent
 sys.path.insert(0, str(ROOT / "clients" / "slam"))
@@ -22,7 +22,7 @@ def test_replay_kitti01_through_a_session(service: Service, data_dir: Path, tmp_
 
     seq = open_sequence(data_dir / "kitti", "kitti", "01")
     before = service.version()
-    res = replay(service.url, seq, tmp_path / "kitti01.tum", window=10, frames=20)
+    res = replay(service.url, seq, tmp_path / "kitti01.tum", window=10, frames=20, token=REPORTER)
     assert res.frames == 20 and len(res.selections) == 20
     assert read_trajectory(tmp_path / "kitti01.tum", "tum").poses.shape == (20, 4, 4)
     assert len(res.feedback) == 2 and service.version() == before + 2

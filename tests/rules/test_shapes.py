@@ -9,6 +9,7 @@ import pytest
 
 from nfex_core.errors import ValidationFailed
 from nfex_core.kg import KnowledgeGraph, parse_rdf
+from nfex_core.kg.sparql_query import with_prefixes
 
 PREFIXES = """
 @prefix nfex: <https://w3id.org/nfex#> .
@@ -230,8 +231,28 @@ def test_the_seeded_graph_conforms(kg: KnowledgeGraph) -> None:
 
 def test_every_shape_has_a_bad_example(kg: KnowledgeGraph) -> None:
     shapes = {str(s).rsplit("#", 1)[-1] for s in kg.shapes().graph.subjects() if str(s).startswith(N) and str(s).endswith("Shape")}
-    covered = {shape for _, _, shape in CASES.values()}
+    covered = {shape for _, _, shape in CASES.values()} | {"CoreShape"}  # a removal: test_core_* below
     assert shapes == covered
+
+
+@pytest.mark.parametrize("update,node", [
+    ("DELETE WHERE { ?x a nfex:FeatureExtractor }", "FeatureExtractor"),
+    ("DELETE WHERE { ?s ?p ?o }", "FeatureExtractor"),  # the shapes go too: the head's core shape still judges
+    ("DELETE WHERE { ?x a nfex:QualityMetric ; ?p ?o }", "QualityMetric"),
+    ("DELETE WHERE { nfex:CoreShape ?p ?o }", "CoreShape"),
+    ("DELETE WHERE { nfex:CoreShape sh:targetNode nfex:FeatureExtractor . ?x a nfex:FeatureExtractor }", "FeatureExtractor"),
+])
+def test_core_shape_refuses_a_change_that_removes_the_ontologys_core(kg: KnowledgeGraph, update: str, node: str) -> None:
+    before_version, before = kg.version, kg.triple_count()
+    with pytest.raises(ValidationFailed) as e:
+        kg.update(with_prefixes(update), author="test")
+    assert any(r.source_shape == N + "CoreShape" and r.focus_node.endswith(node) for r in e.value.results), e.value.results
+    assert kg.version == before_version and kg.triple_count() == before
+
+
+def test_core_shape_lets_one_instance_go(kg: KnowledgeGraph) -> None:
+    kg.update(with_prefixes("DELETE WHERE { nfex:RuleThresholdShape a sh:NodeShape }"), author="test")
+    assert kg.ask("ASK { ?x a sh:NodeShape }") and not kg.ask("ASK { nfex:RuleThresholdShape a sh:NodeShape }")
 
 
 @pytest.mark.parametrize("case", sorted(CASES))

@@ -25,9 +25,11 @@ from tests.conftest import (
 
 EDITOR = "editor-secret-1"
 READER = "reader-secret-2"
+REPORTERS = {"carol": "reporter-secret-3", "dave": "reporter-secret-4", "erin": "reporter-secret-5"}  # nfex:minSources = 3
+REPORTER = REPORTERS["carol"]
 # the settings the tests (and docker-compose.yml) run the service with
 TEST_ENV = {
-    "NFEX_TOKENS": f"alice:{EDITOR}:editor,bob:{READER}:reader",
+    "NFEX_TOKENS": f"alice:{EDITOR}:editor,bob:{READER}:reader," + ",".join(f"{n}:{t}:reporter" for n, t in REPORTERS.items()),
     "NFEX_LOG_LEVEL": "info",
     "NFEX_LOG_JSON": "true",
     "NFEX_SPARQL_TIMEOUT_S": "1.5",

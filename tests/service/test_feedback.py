@@ -1,4 +1,5 @@
-"""POST /v1/feedback: a Measurement with provenance, SHACL-checked, counted by the measured pruning rules."""
+"""POST /v1/feedback: a report (a Measurement attributed to its reporter) with provenance, SHACL-checked,
+counted by the measured pruning rules once corroborated (tests/service/test_trust.py has the trust rule)."""
 from __future__ import annotations
 
 import json
@@ -6,7 +7,7 @@ import json
 import httpx
 import pytest
 
-from .conftest import Service, assert_problem
+from .conftest import REPORTERS, Service, assert_problem, auth
 
 TRACKING_LOSS_RULE = "https://w3id.org/nfex#rule_measured_tracking_loss"  # rules/pruning/measured-tracking-loss.rq
 
@@ -18,7 +19,7 @@ def pruned(service: Service, context: dict[str, str]) -> dict[str, list[dict]]: 
 
 def test_feedback_becomes_a_measurement_with_provenance(service: Service) -> None:
     before = service.version()
-    r = httpx.post(service.url + "/v1/feedback", json={
+    r = httpx.post(service.url + "/v1/feedback", headers=auth(REPORTERS["carol"]), json={
         "extractor": "ORB", "params": {"nfeatures": 1500}, "context": {"agent": "car", "scene": "outdoor"},
         "sequence": "kitti/01", "dataset": "KITTI odometry", "client": "pytest", "window_start": 0, "window_end": 50,
         "ate_rmse": 1.25, "rpe_rmse": 0.05, "tracking_lost": 2, "mean_inliers": 150.0, "extraction_ms": 4.5})
@@ -29,7 +30,7 @@ def test_feedback_becomes_a_measurement_with_provenance(service: Service) -> Non
         <{body['iri']}> a nfex:Measurement ; a ?t ; nfex:ateRmse ?ate ; nfex:frameCount ?frames ; nfex:sequence ?seq ;
             sosa:usedProcedure ?cfg ; prov:wasGeneratedBy ?run ; prov:wasAttributedTo ?agent ; nfex:underCondition ?cond .
         ?cfg nfex:ofExtractor ?x ; nfex:hasSetting [ nfex:parameter nfex:ORB_nfeatures ; nfex:value ?nf ] .
-        ?run a nfex:Run ; prov:wasAssociatedWith ?agent . ?agent a prov:SoftwareAgent . ?seq a nfex:Sequence }}"""
+        ?run a nfex:Run ; prov:wasAssociatedWith ?agent . ?agent a nfex:Reporter ; rdfs:label "carol" . ?seq a nfex:Sequence }}"""
     rows = httpx.get(service.url + "/sparql", params={"query": q}).json()["results"]["bindings"]
     assert {r["cond"]["value"].rsplit("#", 1)[1] for r in rows} == {"agent_car", "scene_outdoor"}
     row = rows[0]
@@ -50,25 +51,26 @@ def test_feedback_becomes_a_measurement_with_provenance(service: Service) -> Non
 ])
 def test_bad_feedback_is_a_clear_4xx_and_writes_nothing(service: Service, body: dict, status: int) -> None:  # type: ignore[type-arg]
     before = service.version()
-    assert_problem(httpx.post(service.url + "/v1/feedback", json=body), status)
+    assert_problem(httpx.post(service.url + "/v1/feedback", json=body, headers=auth(REPORTERS["carol"])), status)
     assert service.version() == before
 
 
 def test_enough_bad_feedback_prunes_an_extractor_from_the_next_commit_on(service: Service) -> None:
-    """Three windows with 60% of frames lost under texture = high exceed nfex:maxTrackingLossRate (0.25)
-    with nfex:minMeasurements (3) windows: rules/pruning/measured-tracking-loss.rq prunes BRISK there."""
+    """Three windows with 60% of frames lost under texture = high, from three reporters (nfex:minSources),
+    exceed nfex:maxTrackingLossRate (0.25) with nfex:minMeasurements (3) windows:
+    rules/pruning/measured-tracking-loss.rq prunes BRISK there."""
     context = {"texture": "high"}
     assert "BRISK" not in pruned(service, context)
-    for i in range(3):
-        r = httpx.post(service.url + "/v1/feedback", json={
+    for i, token in enumerate(REPORTERS.values()):
+        r = httpx.post(service.url + "/v1/feedback", headers=auth(token), json={
             "extractor": "BRISK", "context": context, "sequence": "pytest/high-texture", "window_start": 100 * i,
             "window_end": 100 * i + 100, "tracking_lost": 60, "ate_rmse": 3.0, "client": "pytest"})
         assert r.status_code == 201, r.text
         if i < 2:
-            assert "BRISK" not in pruned(service, context)  # below nfex:minMeasurements
+            assert "BRISK" not in pruned(service, context)  # not corroborated yet (and below nfex:minMeasurements)
     because = pruned(service, context)["BRISK"]
     assert because[0]["rule"] == TRACKING_LOSS_RULE
-    assert "60% of frames over 3 measured windows with texture = high" in because[0]["reason"]
+    assert "60% of frames over 3 measured windows with texture = high (3 sources" in because[0]["reason"]
     assert "BRISK" not in pruned(service, {"texture": "low"})  # only where it was measured
 
 

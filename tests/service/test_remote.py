@@ -11,7 +11,7 @@ import pytest
 
 from tests.conftest import SparqlServer
 
-from .conftest import Service, assert_problem, auth
+from .conftest import REPORTER, Service, assert_problem, auth
 
 
 def test_select_feedback_sparql_and_update_over_a_sparql_server(remote_service: Service, sparql_store: SparqlServer) -> None:
@@ -21,7 +21,7 @@ def test_select_feedback_sparql_and_update_over_a_sparql_server(remote_service: 
     assert "SIFT" in {p["extractor"] for p in sel["pruned"]}
     head = svc.version()
     r = httpx.post(svc.url + "/v1/feedback", json={"extractor": "SIFT", "context": {"scene": "indoor"}, "ate_rmse": 0.5,
-                                                    "sequence": "remote/test", "client": "pytest"})
+                                                    "sequence": "remote/test", "client": "pytest"}, headers=auth(REPORTER))
     assert r.status_code == 201 and r.json()["version"] == head + 1
     # the measurement is in the SPARQL server itself (in the knowledge graph, where the server keeps it in a named one)
     assert sparql_store.backend().ask(f"ASK {{ <{r.json()['iri']}> a <https://w3id.org/nfex#Measurement> }}")

@@ -82,7 +82,7 @@ def _result(call: Call, response: httpx.Response) -> Any:
 
 
 class NfexClient:
-    """Blocking client. ``token`` is an editor's bearer token (reads need none)."""
+    """Blocking client. ``token``: a bearer token — the reporter role for feedback, editor for edits (reads need none)."""
 
     def __init__(self, base_url: str, *, token: str | None = None, timeout: float = 30.0, **httpx_kwargs: Any) -> None:
         headers = {"Authorization": f"Bearer {token}"} if token else {}

@@ -125,16 +125,18 @@ def replay(
     report: bool = True,
     client: NfexClient | None = None,
     seed: int = 0,
+    token: str | None = None,
 ) -> ReplayResult:
     """Run the VO over ``sequence`` through a session; report feedback per window; write TUM; return ATE.
 
     ``seed`` is the VO's RANSAC draw (``VOParams.seed``): with seed r the run is the one ``nfex evaluate``
-    makes as its run r, so both print the same ATE on the same graph."""
+    makes as its run r, so both print the same ATE on the same graph. Feedback needs ``token`` with the
+    reporter role (or a ``client`` built with one)."""
     from nfex_core.trajectory import Trajectory, write_tum
     from nfex_core.vo import VOParams, run_vo
 
     own = client is None
-    client = client or NfexClient(base_url)
+    client = client or NfexClient(base_url, token=token)
     try:
         registry = service_registry(client, base_url)
         ctx = {**{k: v for k, v in sequence.context.items() if v}, **dict(context or {})}
@@ -171,6 +173,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--frames", type=int, help="replay only the first N frames")
     ap.add_argument("--context", action="append", default=[], metavar="DIM=VALUE")
     ap.add_argument("--no-feedback", action="store_true")
+    ap.add_argument("--token-file", type=Path, help="a file holding a bearer token with the reporter role (for feedback)")
     ap.add_argument("--seed", type=int, default=0, help="RANSAC draw: `nfex evaluate`'s run number (default 0)")
     args = ap.parse_args(argv)
 
@@ -179,7 +182,8 @@ def main(argv: list[str] | None = None) -> int:
     context = dict(item.split("=", 1) for item in args.context)
     seq = open_sequence(args.path, args.format, args.sequence)
     res = replay(args.service, seq, args.out, context=context, window=args.window, frames=args.frames,
-                 report=not args.no_feedback, seed=args.seed)
+                 report=not args.no_feedback, seed=args.seed,
+                 token=args.token_file.read_text().strip() if args.token_file else None)
     used = Counter(s["extractor"] for s in res.selections)
     print(f"{seq.key}: {res.frames} frames, {res.lost} lost, extractors {dict(used)}, trajectory {res.trajectory}")
     for fb in res.feedback:

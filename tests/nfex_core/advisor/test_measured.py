@@ -58,7 +58,7 @@ def test_which_measurements_count(measured: KnowledgeGraph) -> None:
     # sharing no known value: nothing counts
     assert table.measured({**ctx, "agent": "drone"}) == {}
     best = table.measured({**ctx, **SLOW, "light": "bright"})["ORB"][0]
-    assert best.mean_ate == pytest.approx(0.05) and best.windows == 3
+    assert best.ate == pytest.approx(0.05) and best.windows == 3
 
 
 def test_theta_is_the_best_measured_configuration_and_cites_it(measured: KnowledgeGraph) -> None:
@@ -67,7 +67,7 @@ def test_theta_is_the_best_measured_configuration_and_cites_it(measured: Knowled
     assert orb.params["nfeatures"] == 2000
     [adj] = [a for a in orb.adjustments if a.parameter == "nfeatures"]
     assert adj.before == 500 and adj.after == 2000 and adj.citations[0].rule == RULE
-    assert "mean ATE 0.050 m over 3 windows" in adj.citations[0].reason
+    assert "median ATE 0.050 m over 3 windows" in adj.citations[0].reason
     assert orb.evidence.configuration.windows == 3
     # an extractor without measurements here keeps g(Θ, E)
     sift = next(c for c in sel.candidates if c.extractor == "SIFT")
@@ -102,7 +102,7 @@ def test_the_frame_score_adds_the_measured_accuracy(measured: KnowledgeGraph, da
     sel = Advisor(measured, neural="symbolic").select({**SLOW, "light": "bright"}, image)
     h = sum(w.value for w in sel.weights.values())
     by = {c.extractor: c for c in sel.candidates}
-    ates = {x: by[x].evidence.measured.mean_ate for x in ("ORB", "SIFT")}
+    ates = {x: by[x].evidence.measured.ate for x in ("ORB", "SIFT")}
     for x, c in by.items():
         a = min(ates.values()) / ates[x] if x in ates else 0.0
         assert c.evidence.measured_accuracy == pytest.approx(a, abs=1e-6)

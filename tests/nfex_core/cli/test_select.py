@@ -82,7 +82,7 @@ def test_with_the_shipped_measurements_the_measured_extractor_wins(shipped_cli_e
     assert p.returncode == 0, p.stderr
     sel = json.loads(p.stdout)
     sift = next(c for c in sel["candidates"] if c["extractor"] == "SIFT")
-    assert sift["evidence"]["windows"] > 0 and sift["evidence"]["mean_ate_m"] > 0
+    assert sift["evidence"]["windows"] > 0 and sift["evidence"]["ate_m"] > 0
     assert all(not b["rule"].endswith("rule_expert_fast_car_gradient_histograms") for x in sel["pruned"] for b in x["because"])
 
 

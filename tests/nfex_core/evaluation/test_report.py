@@ -32,12 +32,12 @@ def test_selections_csv_has_a_row_per_run_frame_and_candidate() -> None:
     nfex = _rec("nfex", 0.5, 1, budget=20.0)
     nfex.selections = [
         {"frame": f, "extractor": "ORB_GRID", "mode": "metrics", "candidates": [
-            {"extractor": "ORB_GRID", "score": 9.0, "f_metrics": 4.0, "measured_accuracy": 1.0, "mean_ate_m": 0.1},
-            {"extractor": "ORB", "score": 8.0, "f_metrics": 4.5, "measured_accuracy": 0.5, "mean_ate_m": None}]}
+            {"extractor": "ORB_GRID", "score": 9.0, "f_metrics": 4.0, "measured_accuracy": 1.0, "ate_m": 0.1},
+            {"extractor": "ORB", "score": 8.0, "f_metrics": 4.5, "measured_accuracy": 0.5, "ate_m": None}]}
         for f in (0, 1)
     ]
     rows = list(csv.DictReader(io.StringIO(selections_csv(Evaluation("kitti", "01", 2, [_rec("orb-default", 1.0, 0), nfex])))))
     assert len(rows) == 4 and {r["method"] for r in rows} == {"nfex"}
     orb = [r for r in rows if r["candidate"] == "ORB"]
     assert [r["frame"] for r in orb] == ["0", "1"] and all(r["chosen"] == "ORB_GRID" and r["budget_ms"] == "20.0" for r in orb)
-    assert orb[0]["f_metrics"] == "4.5" and orb[0]["mean_ate_m"] == "" and orb[0]["run"] == "1"
+    assert orb[0]["f_metrics"] == "4.5" and orb[0]["ate_m"] == "" and orb[0]["run"] == "1"

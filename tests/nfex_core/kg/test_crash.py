@@ -1,44 +1,135 @@
-"""A process killed in the middle of a write leaves a readable store at the last committed version."""
+"""Writers killed with ``kill -9`` inside ``KnowledgeGraph.commit``: the store stays at the last committed
+version, and a writer that dies between its claim and its commit does not hold the others up.
+
+The writer is a real process that commits through ``commit()``; the only thing the test controls is
+*when* it dies: its backend announces each update on stdout before sending it (and, in the second test,
+stops before the commit update), and the test kills it there.
+"""
 from __future__ import annotations
 
+import os
 import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
 
-from nfex_core.kg import KnowledgeGraph
+import pytest
+from rdflib import Literal, URIRef
+from rdflib.namespace import RDFS
+
+from nfex_core.errors import Conflict
+from nfex_core.kg import ChangeSet, KnowledgeGraph
+from nfex_core.kg import store as store_module
+from nfex_core.knowledge import open_graph
+from nfex_core.namespaces import NFEX
 
 WRITER = r"""
-import os, sys
+import os, sys, time
 from rdflib import Literal, URIRef
 from nfex_core.kg import ChangeSet, KnowledgeGraph
-kg = KnowledgeGraph.open(sys.argv[1])
+location, size, stop_before_commit = sys.argv[1], int(sys.argv[2]), sys.argv[3] == "stop"
+kg = KnowledgeGraph.open(location)
+real_update = kg.backend.update
+
+def announced(text):
+    committing = "nfex#commitId" in text or "nfex:commitId" in text
+    print("commit" if committing else "update", flush=True)
+    if committing and stop_before_commit:
+        time.sleep(3600)  # claimed (on a shared server), not committed: the test kills it here
+    real_update(text)
+
+kg.backend.update = announced
 for round in range(1000):
     change = ChangeSet.adding(
-        (URIRef(f"urn:crash:{os.getpid()}:{round}:{i}"), URIRef("urn:crash:p"), Literal(i)) for i in range(int(sys.argv[2]))
+        (URIRef(f"urn:crash:{os.getpid()}:{round}:{i}"), URIRef("urn:crash:p"), Literal(i)) for i in range(size)
     )
-    # skip SHACL: this test is about the store's atomicity, not validation
-    kg._write_version(kg._effective(change), kg.version, kg.version + 1, "crash", "", "x")
-    print(round, flush=True)
+    kg.commit(change, author="crash", message=f"round {round}")
+    print("done", round, flush=True)
 """
 
 
-def test_killed_writer_leaves_a_consistent_store(store_path: Path, tmp_path: Path) -> None:
+def _writer(tmp_path: Path, location: str, size: int, stop: bool) -> subprocess.Popen[str]:
     script = tmp_path / "writer.py"
     script.write_text(WRITER)
-    for delay in (0.3, 0.7, 1.1):
-        proc = subprocess.Popen([sys.executable, str(script), str(store_path), "20000"], stdout=subprocess.PIPE, text=True)
-        assert proc.stdout is not None
-        proc.stdout.readline()  # one commit done; the next is in flight
+    repo = str(Path(__file__).resolve().parents[3])  # this checkout's nfex_core, not an installed one
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [repo, os.environ.get("PYTHONPATH")]))}
+    return subprocess.Popen([sys.executable, str(script), location, str(size), "stop" if stop else "go"],
+                            stdout=subprocess.PIPE, text=True, env=env)
+
+
+def _wait_for(proc: subprocess.Popen[str], word: str, times: int = 1) -> None:
+    assert proc.stdout is not None
+    seen = 0
+    while seen < times:
+        line = proc.stdout.readline()
+        assert line, f"the writer exited ({proc.wait()}) before printing {word!r}"
+        seen += line.split()[0] == word
+
+
+def _crash_notes(kg: KnowledgeGraph) -> int:
+    return int(kg.select("SELECT (COUNT(?s) AS ?n) WHERE { ?s <urn:crash:p> ?o }").rows[0]["n"].toPython())  # type: ignore[union-attr]
+
+
+def test_killed_writer_leaves_a_consistent_store(store_path: Path, tmp_path: Path) -> None:
+    """Killed while ``commit()`` sends its update (20,000 triples): every version up to the head is
+    complete and nothing of a later one is there."""
+    for delay in (0.0, 0.05, 0.3):
+        proc = _writer(tmp_path, str(store_path), 20000, stop=False)
+        _wait_for(proc, "done")  # one commit done
+        _wait_for(proc, "commit")  # the next one is being sent
         time.sleep(delay)
         proc.send_signal(signal.SIGKILL)
         proc.wait()
         kg = KnowledgeGraph.open(str(store_path))
-        head = kg.version
-        # every version up to the head is complete, nothing of a later one is there
-        rounds = kg.select("SELECT (COUNT(?s) AS ?n) WHERE { ?s <urn:crash:p> ?o }").rows[0]["n"].toPython()
-        assert rounds == 20000 * (head - sum(1 for v in kg.versions() if v.author != "crash"))
-        assert kg.triple_count() >= 20000
+        crashed = [v for v in kg.versions() if v.author == "crash"]
+        assert _crash_notes(kg) == 20000 * len(crashed) and crashed
+        assert all(v.added == 20000 for v in crashed)
         kg.close()
         del kg
+
+
+def _next_write_after_a_dead_claim(location: str, tmp_path: Path) -> tuple[float, KnowledgeGraph]:
+    proc = _writer(tmp_path, location, 3, stop=True)
+    _wait_for(proc, "commit")  # claimed (shared server) and about to commit
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    kg = KnowledgeGraph.open(location)
+    head = kg.version
+    t0 = time.monotonic()
+    result = kg.commit(ChangeSet.adding([(NFEX.note_after_crash, RDFS.comment, Literal("after"))]), author="next")
+    elapsed = time.monotonic() - t0
+    assert result.version == head + 1 and kg.version == head + 1
+    return elapsed, kg
+
+
+def test_a_writer_killed_between_claim_and_commit_delays_the_next_write_at_most_5_s_on_a_server(
+    oxigraph_server: str, tmp_path: Path
+) -> None:
+    open_graph(oxigraph_server).close()  # seed
+    elapsed, kg = _next_write_after_a_dead_claim(oxigraph_server, tmp_path)
+    assert elapsed <= 5.0, elapsed
+    assert elapsed >= 1.0  # it did wait for the dead claim (BASE_TTL_S = 3 s from the claim)
+    assert not kg.select("SELECT ?c WHERE { GRAPH <urn:nfex:meta> { ?c nfex:claimsVersion ?n } }").rows  # settled
+    assert _crash_notes(kg) == 0
+
+
+def test_a_writer_killed_before_its_commit_does_not_delay_the_next_on_an_embedded_store(
+    store_path: Path, tmp_path: Path
+) -> None:
+    elapsed, kg = _next_write_after_a_dead_claim(str(store_path), tmp_path)
+    assert elapsed <= 5.0, elapsed
+    assert _crash_notes(kg) == 0
+    kg.close()
+
+
+def test_a_live_claim_is_reported_as_what_it_is(oxigraph_server: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Regression: a writer blocked by another's claim was told "other writers kept committing first"."""
+    from nfex_core.kg import claims
+
+    kg = open_graph(oxigraph_server)
+    claims.take(kg.backend, kg.version + 1, 60.0)  # a writer that claimed and went quiet
+    monkeypatch.setattr(store_module, "CLAIM_WAIT_S", 0.5)
+    with pytest.raises(Conflict, match=rf"another writer claimed version {kg.version + 1} and has not committed it") as e:
+        kg.commit(ChangeSet.adding([(URIRef("urn:x"), RDFS.comment, Literal("x"))]), author="t")
+    assert "committing first" not in e.value.detail
