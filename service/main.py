@@ -19,6 +19,7 @@ from .methods import MethodsMiddleware
 from .observability import Metrics, ServiceMiddleware, setup_logging
 from .routes import (
     conditions,
+    effects,
     extractors,
     feedback,
     graph_store,
@@ -91,7 +92,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app = FastAPI(title="nFEX", version=__version__, summary="Which feature extractor to run, with which parameters, and why.",
                   description=DESCRIPTION, lifespan=lifespan, docs_url=None, redoc_url=None)
     problems.install(app)
-    for module in (health, vocabulary, select, sessions, feedback, sparql, graph_store, extractors, conditions, rules, programs,
+    for module in (health, vocabulary, select, sessions, feedback, sparql, graph_store, extractors, conditions, rules, effects, programs,
                    versions, queries, samples):
         app.include_router(module.router)
     openapi.install(app)

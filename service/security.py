@@ -164,8 +164,9 @@ def is_read(method: str, path: str) -> bool:
 class ReadOnlyCORS:
     """CORS (Fetch standard) for browser tools on the configured origins, on read endpoints only.
 
-    A preflight (``OPTIONS`` with ``Access-Control-Request-Method``) for a read is answered here (204);
-    writes get no CORS headers, so a page on another origin can never send one with a token."""
+    A preflight (``OPTIONS`` with ``Origin`` and ``Access-Control-Request-Method``) for a read is answered
+    here (204); for a write it is refused here (403, saying why), and writes never get CORS headers, so a
+    page on another origin can never send one with a token."""
 
     def __init__(self, app: ASGIApp, *, origins: tuple[str, ...], max_age_s: int = 600) -> None:
         self.app = app
@@ -197,6 +198,12 @@ class ReadOnlyCORS:
                     (b"access-control-max-age", str(self.max_age_s).encode())]})
                 await send({"type": "http.response.body", "body": b""})
                 return
+        if method == "OPTIONS" and "origin" in headers and "access-control-request-method" in headers \
+                and not is_read(headers["access-control-request-method"].upper(), path):
+            await _send_problem(send, Forbidden(
+                f"cross-origin {headers['access-control-request-method'].upper()} {path} is not allowed: CORS covers reads "
+                "only (GET, HEAD, POST /v1/select, POST /sparql); send writes from a server or the same origin"))
+            return
         if not allow or not is_read(method, path):
             await self.app(scope, receive, send)
             return

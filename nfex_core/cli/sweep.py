@@ -30,7 +30,11 @@ def sweep(
     sequence: Annotated[list[str], typer.Option("--sequence", help="Sequence id(s), repeat or comma-separate.")] = [],  # noqa: B006
     extractors: Annotated[list[str], typer.Option("--extractors", "-x", help="Extractors (default ORB,SIFT).")] = [],  # noqa: B006
     corruptions: Annotated[list[str], typer.Option("--corruptions", "-c", help="none and/or corruption names.")] = [],  # noqa: B006
-    severity: Annotated[float, typer.Option(help="Corruption severity in [0, 1].")] = 0.7,
+    severity: Annotated[list[float], typer.Option(help="Corruption severity in [0, 1]; repeat for several (each "
+                        "corruption and schedule at each).")] = [0.7],  # noqa: B006
+    schedule: Annotated[list[str], typer.Option("--schedule", help="A condition schedule over each whole sequence, e.g. "
+                        "none:0-49,dark:50-99,motion_blur:100-149,overexposed:150-199 (repeatable).")] = [],  # noqa: B006
+    checks: Annotated[bool, typer.Option("--checks/--no-checks", help="The front-end checks of the sequence's agent.")] = True,
     window: Annotated[int, typer.Option(help="Frames per window.")] = 20,
     stride: Annotated[int, typer.Option(help="Frames between window starts.")] = 50,
     max_windows: Annotated[int | None, typer.Option(help="At most this many windows per sequence.")] = None,
@@ -55,8 +59,10 @@ def sweep(
     spec = SweepSpec(
         path=str(path), format=format, sequences=split_values(sequence) or ("",), extractors=split_values(extractors) or ("ORB", "SIFT"),
         window=window, stride=stride, max_windows=max_windows, corruptions=split_values(corruptions) or ("none",),
-        severity=severity, seed=seed, sample=sample,
+        severity=severity[0], severities=tuple(severity), schedules=tuple(schedule), checks=checks, seed=seed, sample=sample,
     )
+    if any(not 0.0 <= v <= 1.0 for v in severity):
+        raise BadInput(f"--severity must lie in [0, 1], got {severity}")
     if window < 2 or stride < 1:
         raise BadInput("--window must be at least 2 and --stride at least 1")
     kg = open_kg()

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 from typing import Any
 
 import numpy as np
@@ -177,8 +178,6 @@ def frames_csv(ev: Evaluation) -> str:
     w = csv.writer(buf)
     w.writerow(["method", "budget_ms", "condition", "run", "frame", "segment", "extractor", "params", "keypoints", "matches",
                 "inliers", "lost", "reason", "rotation_error_deg", "direction_error_deg", "extraction_ms"])
-    import json
-
     for r in ev.records:
         if r.result is None:
             continue

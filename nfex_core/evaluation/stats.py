@@ -85,5 +85,7 @@ def compare(values: Sequence[float | None], reference: Sequence[float | None], n
     from scipy.stats import ttest_rel, wilcoxon
 
     p_w = float(wilcoxon(a, b).pvalue)
+    if np.ptp(d) <= 1e-12 * max(1.0, float(np.abs(d).max())):
+        return Comparison(name, len(pairs), rel, p_w, None)  # every pair differs alike: t is undefined (zero variance)
     p_t = float(ttest_rel(a, b).pvalue)
     return Comparison(name, len(pairs), rel, p_w, p_t if math.isfinite(p_t) else None)

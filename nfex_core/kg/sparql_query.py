@@ -97,5 +97,33 @@ def at_user_lines(error: ParseError, query: str) -> ParseError:
     detail = _LINE.sub(shift, _AT.sub(shift, error.detail))
     if not found:
         return error
+    line, column = found[0]
+    if column is None:  # a server that names only the line (Virtuoso): Oxigraph's parser finds the column
+        local = _oxigraph_position(with_prefixes(query))
+        if local is not None and local[0] - hidden == line:
+            column = local[1]
+            detail += f" (at {line}:{column})"
     extra = {k: v for k, v in error.extra.items() if k not in ("line", "column")}
-    return ParseError(detail, line=found[0][0], column=found[0][1], **extra)
+    return ParseError(detail, line=line, column=column, **extra)
+
+
+def _oxigraph_position(text: str) -> tuple[int, int] | None:
+    """Where Oxigraph's SPARQL 1.1 parser stops on ``text`` (a query or an update), or None where it parses.
+
+    Only called on an error path; the text runs against an empty in-memory store, so nothing is read or changed."""
+    import pyoxigraph
+
+    store = pyoxigraph.Store()
+    try:
+        classify(text)
+        run = store.query
+    except BadInput:  # an update, or not parseable as either: the update parser names the position
+        run = store.update
+    try:
+        run(text)
+    except SyntaxError as e:
+        m = _AT.search(str(e))
+        return (int(m.group(1)), int(m.group(2))) if m else None
+    except Exception:  # parsed, then failed running (e.g. SERVICE): no position to give
+        return None
+    return None

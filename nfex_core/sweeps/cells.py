@@ -20,6 +20,7 @@ import numpy as np
 
 from ..datasets.base import Frame, Sequence
 from ..kg.vocab import ExtractorSpec
+from ..motion import NO_CHECKS, StepChecks, motion_direction, rotation_deg
 
 METRIC_EVERY = 3  # window means of m1–m7 from frames 0, 3, 6, … of the window
 DIMENSIONS = ("agent", "motion", "scene", "light", "reflectance", "texture")
@@ -37,12 +38,18 @@ class Cell:
     stop: int
     extractor: str
     params: str  # canonical JSON of the full Θ
+    schedule: str = ""  # with corruption "schedule": the schedule over the whole sequence (datasets.schedule)
+    checks: tuple[float | None, float | None] = (None, None)  # the agent's front-end limits (motion.StepChecks)
 
     @property
     def key(self) -> str:
         """Stable identity of the cell (the data path is not part of it: the same data moved is the same cell)."""
         d = asdict(self)
         d.pop("path")
+        if not d["schedule"]:  # absent from the keys of cells made before schedules and checks existed
+            d.pop("schedule")
+        if tuple(d["checks"]) == (None, None):
+            d.pop("checks")
         return hashlib.sha1(json.dumps(d, sort_keys=True).encode()).hexdigest()[:20]
 
     @property
@@ -97,11 +104,15 @@ def init_worker(specs: Mapping[str, ExtractorSpec]) -> None:
 def load_sequence(cell: Cell) -> Sequence:
     from ..datasets import open_sequence
 
-    key = (cell.path, cell.format, cell.sequence, cell.corruption, cell.severity, cell.seed)
+    key = (cell.path, cell.format, cell.sequence, cell.corruption, cell.severity, cell.seed, cell.schedule)
     seq = _SEQUENCES.get(key)
     if seq is None:
         seq = open_sequence(cell.path, cell.format, cell.sequence or None)
-        if cell.corruption != "none":
+        if cell.corruption == "schedule":
+            from ..datasets.schedule import Schedule, apply_schedule
+
+            seq = apply_schedule(seq, Schedule.parse(cell.schedule, len(seq)), cell.severity, seed=cell.seed)
+        elif cell.corruption != "none":
             from ..datasets.corruptions import corrupt
 
             seq = corrupt(seq, cell.corruption, cell.severity, seed=cell.seed)
@@ -129,14 +140,18 @@ def run_cell(cell: Cell, specs: Mapping[str, ExtractorSpec] | None = None) -> di
         return compute_metrics(feats, image, previous) if (counter.__next__() % METRIC_EVERY == 0) else {}
 
     counter = iter(range(10**9))
+    checks = StepChecks(*cell.checks, agent=seq.context.get("agent", "")) if any(c is not None for c in cell.checks) else NO_CHECKS
     res = run_vo(seq, fixed(cell.extractor, params), registry=_REGISTRY, measure=measure,
-                 start=cell.start, stop=cell.stop)
+                 start=cell.start, stop=cell.stop, checks=checks)
     first = seq[cell.start]
-    ctx = {**seq.context, **first.context}
+    labels = [dict(seq[i].context) for i in range(cell.start, min(cell.stop, len(seq)))]
+    # the labels that held on every frame of the window (a window across a change of conditions keeps the common ones)
+    ctx = {**seq.context, **{d: v for d, v in labels[0].items() if all(x.get(d) == v for x in labels)}}
+    segments = _segments(seq, cell)
     ate_rmse, rpe_rmse = window_errors(seq, res) if not res.failed else (None, None)
     failed = res.failed or ate_rmse is None
     row: dict[str, Any] = {
-        "dataset": seq.dataset, "sequence": seq.name, "corruption": cell.corruption,
+        "dataset": seq.dataset, "sequence": seq.name, "corruption": cell.corruption, "schedule": cell.schedule,
         "severity": cell.severity if cell.corruption != "none" else 0.0, "seed": cell.seed,
         "window_start": cell.start, "window_end": cell.stop, "frames": len(res.frames),
     }
@@ -149,10 +164,67 @@ def run_cell(cell: Cell, specs: Mapping[str, ExtractorSpec] | None = None) -> di
         "mean_keypoints": res.mean("keypoints"), "extraction_ms": res.mean("extraction_ms"),
         "matching_ms": res.mean("matching_ms", skip_first=True), "width": res.width, "height": res.height,
     })
+    row.update(pair_summary(res))
+    row["transition"] = ",".join(f"{a}→{b}" for a, b in zip(segments, segments[1:], strict=False) if a != b)
     row.update({f"m.{k}": v for k, v in res.metric_means().items()})
     row.update({f"stat.{k}": float(v) for k, v in frame_statistics(first.image).items()})
     row["cell"] = cell.key
+    row["_pairs"] = pair_rows(cell, seq, res, segments)
     return row
+
+
+BAD_PAIR_DEG = 5.0  # a pair whose rotation or direction error exceeds this counts as bad
+
+
+def _segments(seq: Sequence, cell: Cell) -> list[str]:
+    """The corruption of each frame of the window (its segment's, under a schedule)."""
+    schedule = getattr(getattr(seq, "inner", seq), "schedule", None)
+    if schedule is None:
+        return [cell.corruption] * (cell.stop - cell.start)
+    return [schedule.segment_of(i).corruption for i in range(cell.start, min(cell.stop, len(seq)))]
+
+
+def pair_summary(res: Any) -> dict[str, Any]:
+    """Per window: the median rotation and direction errors of the pairs' estimates and the fraction of bad pairs."""
+    pairs = res.frames[1:]
+    if not pairs:
+        return {}
+    errs = [f.errors for f in pairs if f.errors is not None]
+    bad = sum(f.lost or f.errors is None or max(f.errors) > BAD_PAIR_DEG for f in pairs)
+    out: dict[str, Any] = {"bad_pair_fraction": bad / len(pairs)}
+    if errs:
+        out["pair_rotation_error_deg"] = float(np.median([e[0] for e in errs]))
+        out["pair_direction_error_deg"] = float(np.median([e[1] for e in errs]))
+    return out
+
+
+def pair_rows(cell: Cell, seq: Sequence, res: Any, segments: list[str]) -> list[dict[str, Any]]:
+    """One row per frame pair of the window: what the configuration's estimate showed, and its error."""
+    out = []
+    for j, f in enumerate(res.frames[1:], start=1):
+        est = f.estimate
+        rvec = _rotvec(est[0]) if est is not None else (None, None, None)
+        direction = motion_direction(*est) if est is not None else (None, None, None)
+        before, after = segments[j - 1], segments[j] if j < len(segments) else segments[-1]
+        out.append({
+            "cell": cell.key, "dataset": seq.dataset, "sequence": seq.name, "corruption": cell.corruption,
+            "severity": cell.severity, "seed": cell.seed, "window_start": cell.start, "frame": cell.start + j,
+            "before": before, "after": after, "transition": f"{before}→{after}" if before != after else "",
+            "extractor": cell.extractor, "params": cell.params, "keypoints": f.keypoints, "matches": f.matches,
+            "inliers": f.inliers, "lost": int(f.lost), "rejected": int(f.rejected), "reason": f.reason,
+            "rotation_deg": rotation_deg(est[0]) if est is not None else None,
+            "rotation_error_deg": f.errors[0] if f.errors else None, "direction_error_deg": f.errors[1] if f.errors else None,
+            "parallax_px": f.parallax_px, "extraction_ms": f.extraction_ms,
+            "rx": rvec[0], "ry": rvec[1], "rz": rvec[2], "dx": direction[0], "dy": direction[1], "dz": direction[2],
+        })
+    return out
+
+
+def _rotvec(R: np.ndarray) -> tuple[float, float, float]:
+    import cv2
+
+    v, _ = cv2.Rodrigues(np.asarray(R, dtype=float))
+    return float(v[0, 0]), float(v[1, 0]), float(v[2, 0])
 
 
 def window_errors(seq: Sequence, res: Any) -> tuple[float | None, float | None]:

@@ -156,7 +156,7 @@ def measurement_graph(rows: Iterable[Mapping[str, Any]], vocab: Vocabulary, run:
         g.add((m, SOSA.usedProcedure, cfg))
         g.add((m, NFEX.sequence, seq))
         g.add((m, PROV.wasGeneratedBy, run.iri))
-        if str(r["corruption"]) != "none":
+        if str(r["corruption"]) not in ("none", "schedule"):
             c = corruption_iri(str(r["corruption"]))
             g.add((c, RDF.type, NFEX.Corruption))
             g.add((c, RDFS.label, Literal(str(r["corruption"]))))
@@ -177,6 +177,13 @@ def measurement_graph(rows: Iterable[Mapping[str, Any]], vocab: Vocabulary, run:
             lit = _double(r.get(col)) if not (col in ("ate_rmse", "rpe_rmse") and str(r["failed"]) in ("1", "True")) else None
             if lit is not None:
                 g.add((m, prop, lit))
+        for col, prop in (("pair_rotation_error_deg", NFEX.pairRotationErrorDeg),
+                          ("pair_direction_error_deg", NFEX.pairDirectionErrorDeg), ("bad_pair_fraction", NFEX.badPairFraction)):
+            lit = _double(r.get(col))
+            if lit is not None:
+                g.add((m, prop, lit))
+        if r.get("transition"):
+            g.add((m, NFEX.transition, Literal(str(r["transition"]))))
         g.add((m, NFEX.frameWidth, _int(r["width"])))
         g.add((m, NFEX.frameHeight, _int(r["height"])))
         for k, v in r.items():

@@ -12,13 +12,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ..datasets.schedule import Schedule
 from ..errors import BadInput
 from ..identity import canonical, measurement_iri
+from ..motion import load_step_checks
 from ..namespaces import PREFIXES
 from .cells import Cell, init_worker, run_cell
 from .grid import grid
 from .records import RunInfo, measurement_graph
 from .table import label as table_label
+from .table import pairs_path, write_pairs
 from .table import read as read_table
 from .table import write as write_table
 
@@ -40,12 +43,20 @@ class SweepSpec:
     corruptions: tuple[str, ...] = ("none",)
     severity: float = 0.7
     seed: int = 0
+    severities: tuple[float, ...] = ()  # every corruption at each of these (default: ``severity``)
+    schedules: tuple[str, ...] = ()  # condition schedules over each whole sequence (datasets.schedule)
+    checks: bool = True  # the front-end checks of each sequence's agent, from the graph (motion.py)
     sample: int | None = None  # parameter sets per extractor (None: the whole grid)
     grids: Mapping[str, Mapping[str, list[Any]]] = field(default_factory=dict)
 
 
-def plan(spec: SweepSpec, kg_vocab: Any, lengths: Mapping[str, int]) -> list[Cell]:
-    """Every cell of the sweep, ordered window-major so that workers share decoded windows."""
+def plan(spec: SweepSpec, kg_vocab: Any, lengths: Mapping[str, int],
+         checks: Mapping[str, tuple[float | None, float | None]] | None = None) -> list[Cell]:
+    """Every cell of the sweep, ordered window-major so that workers share decoded windows; ``checks``:
+    per sequence, the front-end limits of its agent."""
+    severities = spec.severities or (spec.severity,)
+    conditions = [(c, sv, "") for c in spec.corruptions for sv in (severities if c != "none" else (0.0,))]
+    conditions += [("schedule", sv, text) for text in spec.schedules for sv in severities]
     configs = {
         x: [canonical(p) for p in grid(kg_vocab.extractor(x), spec.grids.get(x), spec.sample, spec.seed)]
         for x in spec.extractors
@@ -56,12 +67,13 @@ def plan(spec: SweepSpec, kg_vocab: Any, lengths: Mapping[str, int]) -> list[Cel
         starts = list(range(0, max(n - spec.window, 0) + 1, spec.stride))[: spec.max_windows]
         if not starts:
             raise BadInput(f"sequence {s} has {n} frames, fewer than one window of {spec.window}")
-        for c in spec.corruptions:
+        limits = (checks or {}).get(s, (None, None))
+        for c, sv, text in conditions:
             for start in starts:
                 for x in spec.extractors:
                     for params in configs[x]:
-                        cells.append(Cell(spec.format, spec.path, s, c, spec.severity if c != "none" else 0.0,
-                                          spec.seed, start, start + spec.window, x, params))
+                        cells.append(Cell(spec.format, spec.path, s, c, sv, spec.seed, start, start + spec.window, x,
+                                          params, text, limits))
     return cells
 
 
@@ -119,8 +131,19 @@ def sweep(
     vocab = kg.vocabulary()
     for x in spec.extractors:
         vocab.extractor(x)
-    lengths = {s: len(open_sequence(spec.path, spec.format, s or None)) for s in spec.sequences}
-    cells = plan(spec, vocab, lengths)
+    opened = {s: open_sequence(spec.path, spec.format, s or None) for s in spec.sequences}
+    lengths = {s: len(q) for s, q in opened.items()}
+    for text in spec.schedules:
+        for n in lengths.values():
+            Schedule.parse(text, n)  # a schedule must cover each sequence: fail before any cell runs
+    limits: dict[str, tuple[float | None, float | None]] = {}
+    if spec.checks:
+        table = load_step_checks(kg)
+        for s, q in opened.items():
+            c = table.get(q.context.get("agent", ""))
+            if c is not None:
+                limits[s] = (c.max_rotation_rate, c.max_heading_change_rate)
+    cells = plan(spec, vocab, lengths, limits)
     rows: list[dict[str, Any]] = [dict(r) for r in read_table(csv_path)]
     done = {r["cell"] for r in rows}
     todo = [c for c in cells if c.key not in done]
@@ -150,6 +173,7 @@ def _flush(kg: KnowledgeGraph, csv_path: Path, rows: list[dict[str, Any]], pendi
     """Table first (the record of what is done), then one graph transaction for the batch."""
     if not pending:
         return 0
+    write_pairs(pairs_path(csv_path), [p for r in pending for p in r.pop("_pairs", [])])
     rows.extend(pending)
     write_table(csv_path, rows)
     n = len(pending)

@@ -7,6 +7,7 @@ the lowest ATE — a failure is never best) and ``best_for_extractor`` (each ext
 from __future__ import annotations
 
 import csv
+import gzip
 import math
 from collections import defaultdict
 from collections.abc import Iterable, Mapping, Sequence
@@ -16,13 +17,14 @@ from typing import Any
 from .cells import DIMENSIONS
 
 BASE_COLUMNS = [
-    "dataset", "sequence", "corruption", "severity", "seed", "window_start", "window_end", "frames",
+    "dataset", "sequence", "corruption", "schedule", "severity", "seed", "window_start", "window_end", "frames",
     *[f"ctx.{d}" for d in DIMENSIONS],
     "extractor", "params", "ate_rmse", "rpe_rmse", "tracking_lost", "failed", "mean_matches", "mean_inliers",
     "mean_keypoints", "extraction_ms", "matching_ms", "width", "height",
+    "pair_rotation_error_deg", "pair_direction_error_deg", "bad_pair_fraction", "transition",
 ]
 LABELS = ["best_overall", "best_for_extractor"]
-WINDOW = ("dataset", "sequence", "corruption", "severity", "seed", "window_start")
+WINDOW = ("dataset", "sequence", "corruption", "schedule", "severity", "seed", "window_start")
 
 
 def columns(rows: Iterable[Mapping[str, Any]]) -> list[str]:
@@ -63,7 +65,7 @@ def label(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """Set ``best_overall`` and ``best_for_extractor`` (0/1) on every row, per window."""
     windows: dict[tuple[str, ...], list[dict[str, Any]]] = defaultdict(list)
     for r in rows:
-        windows[tuple(str(r[k]) for k in WINDOW)].append(r)
+        windows[tuple(str(r.get(k, "")) for k in WINDOW)].append(r)
         r["best_overall"] = 0
         r["best_for_extractor"] = 0
     for group in windows.values():
@@ -77,3 +79,38 @@ def label(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
         for rs in by_x.values():
             min(rs, key=lambda r: float(r["ate_rmse"]))["best_for_extractor"] = 1
     return rows
+
+
+PAIR_COLUMNS = [
+    "cell", "dataset", "sequence", "corruption", "severity", "seed", "window_start", "frame", "before", "after",
+    "transition", "extractor", "params", "keypoints", "matches", "inliers", "lost", "rejected", "reason", "rotation_deg",
+    "rotation_error_deg", "direction_error_deg", "parallax_px", "extraction_ms", "rx", "ry", "rz", "dx", "dy", "dz",
+]
+
+
+def pairs_path(table: Path) -> Path:
+    """The per-pair table beside a training table: ``kitti00.csv`` → ``kitti00-pairs.csv.gz``."""
+    return table.with_name(table.stem + "-pairs.csv.gz")
+
+
+def write_pairs(path: Path, rows: Sequence[Mapping[str, Any]]) -> None:
+    """Append per-pair rows (one per frame pair of each cell: its estimate as a rotation vector and a direction
+    of motion, its errors against the ground truth, matches, inliers, loss) to a gzip CSV; a new file gets
+    the header. Appending keeps a killed sweep's pairs, as the training table keeps its rows."""
+    if not rows:
+        return
+    path.parent.mkdir(parents=True, exist_ok=True)
+    new = not path.exists()
+    with gzip.open(path, "at", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=PAIR_COLUMNS, extrasaction="ignore")
+        if new:
+            w.writeheader()
+        for r in rows:
+            w.writerow({c: _fmt(r.get(c)) for c in PAIR_COLUMNS})
+
+
+def read_pairs(path: Path) -> list[dict[str, str]]:
+    if not path.exists():
+        return []
+    with gzip.open(path, "rt", newline="") as f:
+        return list(csv.DictReader(f))

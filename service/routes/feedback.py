@@ -15,7 +15,7 @@ from nfex_core.feedback import Feedback, acceptance_graph, feedback_run_iri, mea
 from nfex_core.namespaces import NFEX
 
 from ..deps import EditorDep, IfMatchDep, KGDep, ReporterDep, SessionsDep
-from ..schemas import PROBLEM_RESPONSES, FeedbackRequest, WriteResult
+from ..schemas import PROBLEM_RESPONSES, FeedbackRequest, ReportList, WriteResult
 
 router = APIRouter(prefix="/v1", tags=["feedback"], responses=PROBLEM_RESPONSES)
 REPORT_ID = re.compile(r"^measurement_[0-9a-f]{32}$")
@@ -49,7 +49,8 @@ def feedback(body: FeedbackRequest, kg: KGDep, sessions: SessionsDep, token: Rep
     return WriteResult.of(result, iri=str(iri)).response(status=201)
 
 
-@router.get("/feedback", summary="Client reports and whether each steers selections yet (and why, or why not)")
+@router.get("/feedback", summary="Client reports and whether each steers selections yet (and why, or why not)",
+            response_model=ReportList)
 def reports(kg: KGDep, status: str | None = Query(None, pattern="^(admitted|quarantined)$"),
             limit: int = Query(100, ge=1, le=10000)) -> JSONResponse:
     observations = [o for o in read_observations(kg) if o.reporter is not None]
@@ -69,7 +70,8 @@ def reports(kg: KGDep, status: str | None = Query(None, pattern="^(admitted|quar
     return JSONResponse({"min_sources": policy.min_sources, "reports": items}, headers={"ETag": f'"{kg.version}"'})
 
 
-@router.post("/feedback/{report_id}/accept", summary="Admit a report as evidence before it is corroborated (editor)")
+@router.post("/feedback/{report_id}/accept", summary="Admit a report as evidence before it is corroborated (editor)",
+             response_model=WriteResult)
 def accept(kg: KGDep, token: EditorDep, expected: IfMatchDep,
            report_id: str = Path(..., max_length=64, description="The report's id: measurement_<32 hex digits>")) -> JSONResponse:
     if not REPORT_ID.match(report_id):

@@ -59,16 +59,6 @@ def list_rules(kg: KGDep) -> dict[str, Any]:
     return {"graph_version": kg.version, "rules": _rules(kg)}
 
 
-@router.get("/effects", summary="What every rule, statement and context shape does across all contexts (from the compiled table)")
-def rule_effects(kg: KGDep) -> dict[str, Any]:
-    from nfex_core.rules.effects import effects
-    from nfex_core.rules.engine import RuleEngine
-
-    table = RuleEngine(kg).table()  # the advisor's cached table for this graph version
-    return {"graph_version": table.version, "contexts": len(table.decisions),
-            "rules": [r.as_dict() for r in sorted(effects(table).values(), key=lambda r: r.iri)]}
-
-
 @router.get("/{rule_id}", summary="One rule", response_model=Rule)
 def get_rule(rule_id: str, kg: KGDep) -> dict[str, Any]:
     found = _rules(kg, rule_iri(rule_id))

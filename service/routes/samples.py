@@ -30,7 +30,11 @@ def list_samples(settings: SettingsDep) -> dict[str, Any]:
     return {"data": str(data), "samples": [s.as_dict() for s in _found(data)]}
 
 
-@router.get("/{sample_id}", summary="One frame's image (PNG or JPEG)", response_class=FileResponse)
+IMAGE = {"schema": {"type": "string", "format": "binary"}}
+
+
+@router.get("/{sample_id}", summary="One frame's image (PNG or JPEG)", response_class=FileResponse,
+            responses={200: {"content": {"image/png": IMAGE, "image/jpeg": IMAGE}, "description": "The frame's file."}})
 def get_sample(sample_id: str, settings: SettingsDep) -> FileResponse:
     for s in _found(settings.core().data):
         if s.id == sample_id:

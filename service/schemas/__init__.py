@@ -24,6 +24,8 @@ from .resources import (
     Program,
     ProgramList,
     Ready,
+    Report,
+    ReportList,
     Rule,
     RuleList,
     Session,
@@ -38,7 +40,7 @@ from .selection import Selection, SessionSelection
 __all__ = [
     "CONTEXT_EXAMPLE", "PROBLEM_JSON", "PROBLEM_RESPONSES", "ConditionValueIn", "Conditions", "Diff", "Extractor",
     "ExtractorList", "FeedbackRequest", "Head", "Health", "Parameter", "ParameterPatch", "Problem", "Program",
-    "ProgramList", "Ready", "RollbackIn", "Rule", "RuleIn", "RuleList", "SelectRequest", "Selection", "Session",
+    "ProgramList", "Ready", "Report", "ReportList", "RollbackIn", "Rule", "RuleIn", "RuleList", "SelectRequest", "Selection", "Session",
     "SessionCreate", "SessionSelection", "SparqlResults", "VersionChanges", "VersionList", "Vocabulary", "WriteResult",
     "problem_response", "problems",
 ]

@@ -26,6 +26,24 @@ class WriteResult(Out):
         return JSONResponse(self.model_dump(), status_code=status, headers={"ETag": f'"{self.version}"'})
 
 
+# -- client reports (/v1/feedback)
+class Report(Out):
+    id: str = Field(..., description="measurement_<32 hex digits>: what POST /v1/feedback/{id}/accept takes.")
+    iri: str
+    extractor: str | None
+    configuration: str | None
+    conditions: dict[str, str]
+    reporter: str
+    ate_m: float | None
+    status: str = Field(..., description="admitted (steers selections) | quarantined (kept, not counted yet)")
+    because: str | None = Field(None, description="Why it is admitted or quarantined.")
+
+
+class ReportList(Out):
+    min_sources: int = Field(..., description="Distinct reporters needed to admit a configuration's reports (nfex:minSources).")
+    reports: list[Report]
+
+
 # -- operations
 class Health(Out):
     status: str
@@ -38,6 +56,13 @@ class RuleTable(Out):
     compile_ms: float
 
 
+class BackendStatus(Out):
+    extractors: list[str]
+    available: bool
+    detail: str = Field(..., description="What runs it, or what to install or set to make it run.")
+    setting: str | None = Field(None, description="The setting that would change it (e.g. NFEX_XFEAT_WEIGHTS).")
+
+
 class Ready(Out):
     status: str = Field(..., description="ready | starting | failed")
     graph_version: int
@@ -45,6 +70,8 @@ class Ready(Out):
     torch_loaded: bool
     detail: str | None = None
     rule_table: RuleTable | None = None
+    backends: dict[str, BackendStatus] | None = Field(
+        None, description="Per extractor backend the graph uses: whether it can run here and, if not, why.")
 
 
 # -- vocabulary

@@ -49,16 +49,23 @@ class MeasuredConfiguration(Out):
     """The measured configuration Θ′ was taken from."""
 
     iri: str
-    mean_ate_m: float
+    ate_m: float = Field(..., description="The robust aggregate (see aggregate) of its admitted measurements' ATE, metres.")
+    aggregate: str = Field(..., description="How the windows' ATEs are combined: median.")
     windows: int
+    outliers: int = Field(..., description="Windows flagged as outliers (kept, shown, not counted).")
+    sources: int = Field(..., description="Independent sources (reporters or runs) behind the windows.")
     because: Citation | None
 
 
 class Evidence(Out):
     """What the graph has measured for a candidate under the context, and how it was scored."""
 
-    mean_ate_m: float | None = Field(None, description="Mean ATE measured under the context's known conditions, metres.")
+    ate_m: float | None = Field(None, description="Median ATE measured under the context's known conditions, metres.")
+    aggregate: str | None = Field(None, description="How the windows' ATEs are combined: median.")
     windows: int | None = None
+    outliers: int | None = Field(None, description="Windows flagged as outliers: shown, not counted.")
+    sources: int | None = Field(None, description="Independent sources (reporters or runs) behind the windows.")
+    source_iris: list[str] | None = Field(None, description="Up to ten of those sources.")
     extraction_ms: float | None = None
     params_source: str | None = Field(None, description="Which source of the Θ′ chain set Θ′: measured | paramnet | rules.")
     configuration: MeasuredConfiguration | None = None

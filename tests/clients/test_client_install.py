@@ -26,7 +26,11 @@ import importlib.util, json, sys
 import cv2
 from nfex_client import NfexClient, Unprocessable, extractor_from_selection
 
-out = {"server_importable": [m for m in ("nfex_core", "service") if importlib.util.find_spec(m)],
+def code(name):  # a package with code; the test environment's editable nfex leaves a data-only nfex_core/_home
+    spec = importlib.util.find_spec(name)  # in its site-packages, which this venv shares for its dependencies
+    return spec is not None and spec.origin not in (None, "namespace")
+
+out = {"server_importable": [m for m in ("nfex_core", "service") if code(m)],
        "client_at": importlib.util.find_spec("nfex_client").origin}
 url, frame_path = sys.argv[1], sys.argv[2]
 frame = cv2.imread(frame_path, cv2.IMREAD_GRAYSCALE)

@@ -25,8 +25,9 @@ def test_the_committed_types_are_generated_from_the_services_document(service: S
 
 
 def _keys(typed: Any) -> tuple[set[str], set[str]]:
-    """(required, all) keys of a generated TypedDict, read from its annotations."""
-    notes: dict[str, str] = {k: str(v) for k, v in typed.__annotations__.items()}
+    """(required, all) keys of a generated TypedDict, read from its annotations (strings, which TypedDict
+    wraps in ForwardRef: its own ``__required_keys__`` cannot see a ``NotRequired`` inside one)."""
+    notes: dict[str, str] = {k: getattr(v, "__forward_arg__", str(v)) for k, v in typed.__annotations__.items()}
     return {k for k, v in notes.items() if not v.startswith("NotRequired[")}, set(notes)
 
 

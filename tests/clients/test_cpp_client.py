@@ -21,7 +21,7 @@ import pytest
 from nfex_client import NfexClient, extractor_from_selection
 
 from tests.conftest import stop_process
-from tests.service.conftest import Service, start_service
+from tests.service.conftest import REPORTER, Service, start_service
 
 ROOT = Path(__file__).resolve().parent.parent.parent
 SOURCE = ROOT / "clients" / "cpp"
@@ -80,7 +80,7 @@ def nfex_select(build: Path, url: str, frame: Path, context: dict[str, str]) -> 
 
 
 def test_ctest_suite_against_the_service(cpp_build: Path, service: Service, data_dir: Path) -> None:
-    env = dict(os.environ, NFEX_TEST_URL=service.url, NFEX_TEST_FRAME=str(kitti_frame(data_dir, 0)))
+    env = dict(os.environ, NFEX_TEST_URL=service.url, NFEX_TEST_FRAME=str(kitti_frame(data_dir, 0)), NFEX_TEST_TOKEN=REPORTER)
     r = subprocess.run(["ctest", "--test-dir", str(cpp_build), "--output-on-failure"], env=env,
                        capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stdout[-6000:] + r.stderr[-2000:]
@@ -130,7 +130,8 @@ def test_cpp_and_python_clients_agree_on_alpha_and_theta(cpp_build: Path, shippe
 def test_nfex_stream_runs_a_session_over_a_kitti_folder(cpp_build: Path, service: Service, data_dir: Path) -> None:
     sequence = kitti_frame(data_dir, 0).parent.parent
     r = subprocess.run([str(cpp_build / "nfex_stream"), "--url", service.url, "--context", "agent=car", "--sequence",
-                        str(sequence), "--limit", "4", "--feedback", "cpp-client/stream-test"],
+                        str(sequence), "--limit", "4", "--feedback", "cpp-client/stream-test",
+                        "--token", REPORTER],
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     lines = [json.loads(line) for line in r.stdout.splitlines()]

@@ -9,7 +9,8 @@ import pytest
 from .conftest import Service, assert_problem
 
 FILLED = {"{name}": "ORB", "{param}": "nfeatures", "{dimension}": "light", "{value}": "dark", "{rule_id}": "?",
-          "{session_id}": "?", "{number}": "1"}
+          "{session_id}": "?", "{number}": "1", "{report_id}": "measurement_" + "0" * 32,
+          "{sample_id}": "?"}
 ORDER = ["GET", "HEAD", "POST", "PUT", "PATCH", "DELETE", "OPTIONS"]
 QUERIES = {"/v1/graph/diff": {"since": 0}, "/sparql/graph": {"default": ""}}
 
@@ -20,7 +21,9 @@ def paths(service: Service) -> dict[str, list[str]]:
     spec = httpx.get(service.url + "/openapi.json").json()
     session = httpx.post(service.url + "/v1/sessions", json={"context": {}}).json()["id"]
     rule = httpx.get(service.url + "/v1/rules").json()["rules"][0]["id"]
-    fill = {**FILLED, "{session_id}": session, "{rule_id}": rule}
+    samples = httpx.get(service.url + "/v1/samples").json()["samples"]
+    assert samples, "the service's data folder (NFEX_DATA) has no frames"
+    fill = {**FILLED, "{session_id}": session, "{rule_id}": rule, "{sample_id}": samples[0]["id"]}
     out = {}
     for path, item in spec["paths"].items():
         methods = {m.upper() for m in item if m in ("get", "put", "post", "delete", "patch")}

@@ -102,7 +102,7 @@ def test_writes_declare_the_bearer_scheme_and_need_a_token(spec: dict[str, Any],
     assert ("post", "/sparql/update") in secured and ("put", "/sparql/graph") in secured and ("get", "/sparql") not in secured
     # what the document says is what the service does: every secured operation is 401 without a token
     filled = {"{name}": "ORB", "{param}": "nfeatures", "{dimension}": "light", "{value}": "dark", "{rule_id}": "x",
-              "{session_id}": "x", "{number}": "1"}
+              "{session_id}": "x", "{number}": "1", "{report_id}": "measurement_" + "0" * 32}
     before = service.version()
     for method, path in secured:
         url = service.url + re.sub(r"\{[a-z_]+\}", lambda m: filled[m.group(0)], path)

@@ -30,7 +30,7 @@ def test_select_feedback_sparql_and_update_over_a_sparql_server(remote_service: 
     # the server's own CSV passes through (Virtuoso quotes every field, Oxigraph only where needed)
     assert csv.headers["content-type"].startswith("text/csv") and [row[0] for row in reader(io.StringIO(csv.text))][1:] == [
         "https://w3id.org/nfex#AKAZE", "https://w3id.org/nfex#BRISK", "https://w3id.org/nfex#ORB", "https://w3id.org/nfex#ORB_GRID",
-        "https://w3id.org/nfex#SIFT"]
+        "https://w3id.org/nfex#SIFT", "https://w3id.org/nfex#XFEAT"]
     before = svc.version()
     assert_problem(httpx.post(svc.url + "/sparql/update", content="DELETE WHERE { nfex:SIFT nfex:matchNorm ?n }",
                               headers={"content-type": "application/sparql-update", **auth()}), 422, "shacl-violation")

@@ -132,9 +132,17 @@ def _oracle(text: str, kind: str) -> tuple[int, int]:
 
 
 @pytest.mark.parametrize("kind", ["query", "update"])
-@pytest.mark.parametrize("store", ["embedded", "remote"])
-def test_parse_errors_name_the_users_line_and_column(service: Service, store: str, kind: str, request: pytest.FixtureRequest) -> None:
-    svc: Service = service if store == "embedded" else request.getfixturevalue("remote_service")
+def test_parse_errors_name_the_users_line_and_column(service: Service, kind: str) -> None:
+    _parse_error_names_line_and_column(service, kind)
+
+
+@pytest.mark.parametrize("kind", ["query", "update"])
+def test_parse_errors_name_the_users_line_and_column_over_a_sparql_server(remote_service: Service, kind: str) -> None:
+    """The same positions where the graph lives in a SPARQL server (each kind the suite starts)."""
+    _parse_error_names_line_and_column(remote_service, kind)
+
+
+def _parse_error_names_line_and_column(svc: Service, kind: str) -> None:
     text, path = BAD[kind]
     line, column = _oracle(text, kind)
     assert line >= 3

@@ -20,7 +20,7 @@ import pytest
 
 from tests.conftest import REPO, stop_process
 
-from .conftest import EDITOR, Service, start_service
+from .conftest import EDITOR, REPORTER, Service, start_service
 
 CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                   "--disable-background-networking", "--disable-component-update", "--disable-sync"]
@@ -220,7 +220,8 @@ def test_a_valid_program_previews_applies_and_its_version_is_listed(page: Any, u
 
 def test_browse_and_evidence_views(page: Any, ui_service: Service) -> None:
     r = httpx.post(ui_service.url + "/v1/feedback", json={"extractor": "ORB", "client": "ui-test-client", "sequence": "kitti/01",
-                                                         "context": {"agent": "car"}, "ate_rmse": 0.42, "window_start": 0, "window_end": 10})
+                                                         "context": {"agent": "car"}, "ate_rmse": 0.42, "window_start": 0, "window_end": 10},
+                   headers={"Authorization": f"Bearer {REPORTER}"})
     assert r.status_code == 201, r.text
     page.goto(ui_service.url + "/ui/#/browse")
     expect(page.locator("#extractor-cards")).to_contain_text("SIFT")

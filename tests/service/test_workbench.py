@@ -87,7 +87,7 @@ def test_samples_list_and_serve_frames_by_id_only(service: Service, data_dir: Pa
 
 
 def test_rule_effects_cover_the_programs_statements(service: Service) -> None:
-    doc = httpx.get(service.url + "/v1/rules/effects").json()
+    doc = httpx.get(service.url + "/v1/rule-effects").json()
     by_label = {r["label"]: r for r in doc["rules"]}
     dark = by_label["adjust ORB.nfeatures by 1.6 when light is dark"]
     (effect,) = dark["effects"]

@@ -1,5 +1,5 @@
-// Tests against a real nFEX service: NFEX_TEST_URL (its base URL) and NFEX_TEST_FRAME (a real frame,
-// e.g. KITTI 01's 000000.png). tests/clients/test_cpp_client.py starts the service over a copy of a
+// Tests against a real nFEX service: NFEX_TEST_URL (its base URL), NFEX_TEST_FRAME (a real frame,
+// e.g. KITTI 01's 000000.png) and NFEX_TEST_TOKEN (a token with the reporter role, for feedback). tests/clients/test_cpp_client.py starts the service over a copy of a
 // seeded store and runs these through ctest.
 #include "check.hpp"
 
@@ -12,6 +12,12 @@
 namespace {
 
 std::string url() { return std::getenv("NFEX_TEST_URL"); }
+
+std::string reporter_token() {
+    const char* token = std::getenv("NFEX_TEST_TOKEN");
+    if (token == nullptr) check::fail(__FILE__, __LINE__, "NFEX_TEST_TOKEN is not set");
+    return token;
+}
 
 cv::Mat frame() {
     const char* path = std::getenv("NFEX_TEST_FRAME");
@@ -74,7 +80,7 @@ TEST(service, an_unknown_condition_value_is_unprocessable_with_the_allowed_value
 }
 
 TEST(service, a_session_carries_the_previous_frame_and_takes_feedback) {
-    nfex::Client nfex(url());
+    nfex::Client nfex(url(), reporter_token());
     nfex::Session session = nfex.open_session({{"agent", "car"}}, "cpp-test");
     cv::Mat image = frame();
     nfex::Selection first = session.frame(image);
@@ -95,6 +101,14 @@ TEST(service, a_session_carries_the_previous_frame_and_takes_feedback) {
     session.close();
     session.close();  // again: nothing to do
     CHECK_THROWS(session.frame(image), nfex::Error);
+}
+
+TEST(service, feedback_without_a_token_is_unauthorized) {
+    nfex::Client nfex(url());  // selecting needs no token; reporting needs the reporter role
+    nfex::Selection s = nfex.select({{"agent", "car"}});
+    nfex::Feedback fb = nfex::Feedback::of(s);
+    fb.sequence = "cpp-client/anonymous";
+    CHECK_THROWS(nfex.feedback(fb), nfex::Unauthorized);
 }
 
 TEST(service, sparql_answers_json_results_and_bad_queries_are_bad_requests) {

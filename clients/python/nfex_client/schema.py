@@ -14,6 +14,13 @@ if TYPE_CHECKING:
 Adjustment = TypedDict('Adjustment', {'parameter': 'str', 'from': 'int | float | bool', 'to': 'int | float | bool', 'factor': 'float', 'clamped': 'bool', 'because': 'list[Citation]'})
 
 
+class BackendStatus(TypedDict):
+    extractors: list[str]
+    available: bool
+    detail: str
+    setting: NotRequired[str | None]
+
+
 class Budget(TypedDict):
     ms: float
     source: str
@@ -88,8 +95,12 @@ class DimensionValues(TypedDict):
 class Evidence(TypedDict):
     """What the graph has measured for a candidate under the context, and how it was scored."""
 
-    mean_ate_m: NotRequired[float | None]
+    ate_m: NotRequired[float | None]
+    aggregate: NotRequired[str | None]
     windows: NotRequired[int | None]
+    outliers: NotRequired[int | None]
+    sources: NotRequired[int | None]
+    source_iris: NotRequired[list[str] | None]
     extraction_ms: NotRequired[float | None]
     params_source: NotRequired[str | None]
     configuration: NotRequired[MeasuredConfiguration | None]
@@ -123,6 +134,11 @@ class ExtractorList(TypedDict):
     extractors: list[Extractor]
 
 
+class Grid(TypedDict):
+    cell_size: int
+    keep: int
+
+
 class Head(TypedDict):
     version: int
     store: str
@@ -133,12 +149,27 @@ class Health(TypedDict):
     status: str
 
 
+class Keypoints(TypedDict):
+    """The keypoints α* with Θ′ finds on the full frame (``?keypoints=true``, for drawing), strongest first."""
+
+    extractor: str
+    count: int
+    width: int
+    height: int
+    xy: list[list[float]]
+    size: list[float]
+    extraction_ms: float
+
+
 class MeasuredConfiguration(TypedDict):
     """The measured configuration Θ′ was taken from."""
 
     iri: str
-    mean_ate_m: float
+    ate_m: float
+    aggregate: str
     windows: int
+    outliers: int
+    sources: int
     because: Citation | None
 
 
@@ -163,8 +194,12 @@ class ModelInfo(TypedDict):
 
 
 class OpenCV(TypedDict):
+    """How a client builds α with Θ′ itself (``ExtractorSpec.opencv``)."""
+
     constructor: str
     norm: str
+    args: NotRequired[dict[str, int | float | bool]]
+    grid: NotRequired[Grid | None]
 
 
 class Parameter(TypedDict):
@@ -227,6 +262,24 @@ class Ready(TypedDict):
     torch_loaded: bool
     detail: NotRequired[str | None]
     rule_table: NotRequired[RuleTable | None]
+    backends: NotRequired[dict[str, BackendStatus] | None]
+
+
+class Report(TypedDict):
+    id: str
+    iri: str
+    extractor: str | None
+    configuration: str | None
+    conditions: dict[str, str]
+    reporter: str
+    ate_m: float | None
+    status: str
+    because: NotRequired[str | None]
+
+
+class ReportList(TypedDict):
+    min_sources: int
+    reports: list[Report]
 
 
 class Rule(TypedDict):
@@ -266,6 +319,7 @@ class Selection(TypedDict):
     warnings: list[str]
     versions: Versions
     timings_ms: dict[str, float]
+    keypoints: NotRequired[Keypoints | None]
 
 
 class Session(TypedDict):
@@ -293,6 +347,7 @@ class SessionSelection(TypedDict):
     warnings: list[str]
     versions: Versions
     timings_ms: dict[str, float]
+    keypoints: NotRequired[Keypoints | None]
     session: StreamPosition
 
 
@@ -375,4 +430,4 @@ class WriteResult(TypedDict):
     iri: NotRequired[str | None]
 
 
-__all__ = ['Adjustment', 'Budget', 'Candidate', 'Citation', 'ConditionValue', 'Conditions', 'ContextEntry', 'Diff', 'Dimension', 'DimensionValues', 'Evidence', 'Extractor', 'ExtractorBrief', 'ExtractorList', 'Head', 'Health', 'MeasuredConfiguration', 'MetricBrief', 'ModelInfo', 'OpenCV', 'Parameter', 'ParameterBrief', 'Problem', 'Program', 'ProgramInfo', 'ProgramList', 'Pruned', 'Ready', 'Rule', 'RuleList', 'RuleTable', 'Selection', 'Session', 'SessionSelection', 'SparqlBindings', 'SparqlHead', 'SparqlResults', 'StreamPosition', 'VersionChanges', 'VersionInfo', 'VersionList', 'Versions', 'Vocabulary', 'Weight', 'WriteResult']
+__all__ = ['Adjustment', 'BackendStatus', 'Budget', 'Candidate', 'Citation', 'ConditionValue', 'Conditions', 'ContextEntry', 'Diff', 'Dimension', 'DimensionValues', 'Evidence', 'Extractor', 'ExtractorBrief', 'ExtractorList', 'Grid', 'Head', 'Health', 'Keypoints', 'MeasuredConfiguration', 'MetricBrief', 'ModelInfo', 'OpenCV', 'Parameter', 'ParameterBrief', 'Problem', 'Program', 'ProgramInfo', 'ProgramList', 'Pruned', 'Ready', 'Report', 'ReportList', 'Rule', 'RuleList', 'RuleTable', 'Selection', 'Session', 'SessionSelection', 'SparqlBindings', 'SparqlHead', 'SparqlResults', 'StreamPosition', 'VersionChanges', 'VersionInfo', 'VersionList', 'Versions', 'Vocabulary', 'Weight', 'WriteResult']

@@ -32,7 +32,8 @@ from ...config import Settings
 from ...errors import ParameterError
 from ...kg.vocab import ExtractorSpec, Value
 from ..features import Features
-from .model import CELL, DESCRIPTOR_SIZE, STRIDE, XFeatNetwork, network
+from .model import DESCRIPTOR_SIZE, STRIDE, XFeatNetwork, network
+from .network import CELL
 
 NMS_WINDOW = 5
 BICUBIC_A = -0.75  # PyTorch's bicubic grid_sample (Keys' cubic convolution)

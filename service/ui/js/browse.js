@@ -10,7 +10,7 @@ const NFEX = PREFIXES.nfex;
 let effectsCache = null;
 
 function effects() {
-  effectsCache ??= api("/v1/rules/effects").catch(() => ({ rules: [], contexts: 0 }));
+  effectsCache ??= api("/v1/rule-effects").catch(() => ({ rules: [], contexts: 0 }));
   return effectsCache;
 }
 

@@ -18,11 +18,12 @@ const SOURCES = `SELECT ?run ?runLabel ?agent ?agentLabel ?cpu (COUNT(?m) AS ?me
   OPTIONAL { ?run prov:wasAssociatedWith ?agent . OPTIONAL { ?agent rdfs:label ?agentLabel } OPTIONAL { ?agent nfex:cpuModel ?cpu } }
 } GROUP BY ?run ?runLabel ?agent ?agentLabel ?cpu ORDER BY DESC(?measurements)`;
 
-const FEEDBACK = `SELECT ?m ?agent ?agentLabel ?extractor ?ate ?lost ?seq ?time (GROUP_CONCAT(DISTINCT ?cv; separator=", ") AS ?conditions) WHERE {
+const FEEDBACK = `SELECT ?m ?agent ?agentLabel ?run ?runLabel ?extractor ?ate ?lost ?seq ?time (GROUP_CONCAT(DISTINCT ?cv; separator=", ") AS ?conditions) WHERE {
   ?m a nfex:Measurement ; prov:wasAttributedTo ?agent ; sosa:usedProcedure/nfex:ofExtractor/nfex:token ?extractor .
-  OPTIONAL { ?agent rdfs:label ?agentLabel } OPTIONAL { ?m nfex:ateRmse ?ate } OPTIONAL { ?m nfex:trackingLost ?lost }
+  OPTIONAL { ?agent rdfs:label ?agentLabel } OPTIONAL { ?m prov:wasGeneratedBy ?run . ?run rdfs:label ?runLabel }
+  OPTIONAL { ?m nfex:ateRmse ?ate } OPTIONAL { ?m nfex:trackingLost ?lost }
   OPTIONAL { ?m nfex:sequence ?seq } OPTIONAL { ?m sosa:resultTime ?time } OPTIONAL { ?m nfex:underCondition/nfex:token ?cv }
-} GROUP BY ?m ?agent ?agentLabel ?extractor ?ate ?lost ?seq ?time ORDER BY DESC(?time) LIMIT 200`;
+} GROUP BY ?m ?agent ?agentLabel ?run ?runLabel ?extractor ?ate ?lost ?seq ?time ORDER BY DESC(?time) LIMIT 200`;
 
 const sparqlLink = (q) => h("a", { href: `#/sparql?query=${encodeURIComponent(q)}`, class: "small" }, "open the query");
 
@@ -57,8 +58,9 @@ export async function view(root) {
           val(b, "measurements"), (val(b, "since") || "").replace("T", " ").slice(0, 19)], [3])),
     h("div", { class: "panel", id: "feedback" },
       h("h2", {}, "Feedback from clients ", sparqlLink(FEEDBACK)),
-      h("p", { class: "muted" }, "Measurements reported through POST /v1/feedback, attributed to the client that sent them."),
-      rowsTable(["measurement", "client", "extractor", "ATE (m)", "tracking lost", "sequence", "conditions", "time"], feedback,
-        (b) => [iriLink(val(b, "m")), b.agent ? iriLink(val(b, "agent"), val(b, "agentLabel")) : "", val(b, "extractor"), b.ate ? termCell(b.ate) : "",
-          val(b, "lost") ?? "", b.seq ? iriLink(val(b, "seq")) : "", val(b, "conditions") || "", (val(b, "time") || "").replace("T", " ").slice(0, 19)], [3, 4])));
+      h("p", { class: "muted" }, "Measurements reported through POST /v1/feedback, attributed to the reporter whose token sent them; the run names the session or client. They steer selections once corroborated (GET /v1/feedback says which)."),
+      rowsTable(["measurement", "reporter", "run", "extractor", "ATE (m)", "tracking lost", "sequence", "conditions", "time"], feedback,
+        (b) => [iriLink(val(b, "m")), b.agent ? iriLink(val(b, "agent"), val(b, "agentLabel")) : "", b.run ? iriLink(val(b, "run"), val(b, "runLabel")) : "",
+          val(b, "extractor"), b.ate ? termCell(b.ate) : "",
+          val(b, "lost") ?? "", b.seq ? iriLink(val(b, "seq")) : "", val(b, "conditions") || "", (val(b, "time") || "").replace("T", " ").slice(0, 19)], [4, 5])));
 }

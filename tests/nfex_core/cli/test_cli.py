@@ -22,14 +22,14 @@ def test_sparql_lists_every_parameter(cli_env: dict[str, str]) -> None:
     for name in ("ORB_nfeatures", "ORB_scaleFactor", "ORB_nlevels", "ORB_edgeThreshold", "ORB_fastThreshold",
                  "SIFT_nfeatures", "SIFT_nOctaveLayers", "SIFT_contrastThreshold", "SIFT_edgeThreshold", "SIFT_sigma"):
         assert f"nfex:{name}" in p.stdout
-    assert "(37 rows)" in p.stdout  # ORB 9, ORB_GRID 11, SIFT 6, AKAZE 8, BRISK 3
+    assert "(40 rows)" in p.stdout  # ORB 9, ORB_GRID 11, SIFT 6, AKAZE 8, BRISK 3, XFEAT 3
 
 
 def test_sparql_on_a_fresh_empty_folder_seeds_it(tmp_path: Path, cli_env: dict[str, str]) -> None:
     env = dict(cli_env, NFEX_STORE=str(tmp_path / "new"))
     p = run_cli(["sparql", PARAMS_QUERY, "--format", "json"], env)
     assert p.returncode == 0, p.stderr
-    assert len(json.loads(p.stdout)["results"]["bindings"]) == 37
+    assert len(json.loads(p.stdout)["results"]["bindings"]) == 40
 
 
 def test_sparql_formats(cli_env: dict[str, str], tmp_path: Path) -> None:

@@ -12,15 +12,18 @@ from tests.conftest import run_cli
 def test_nfex_evaluate_json_and_files(cli_env: dict[str, str], data_dir: Path, tmp_path: Path) -> None:
     out = tmp_path / "ev"
     r = run_cli(["evaluate", str(data_dir / "kitti"), "--format", "kitti", "--sequence", "01", "--frames", "6",
-                 "--methods", "orb-default,orb-dyn", "--out", str(out), "--json", "--no-plots"], cli_env)
+                 "--methods", "orb-default,orb-dyn", "--runs", "1", "--out", str(out), "--json", "--no-plots"], cli_env)
     assert r.returncode == 0, r.stderr
     doc = json.loads(r.stdout)
-    m = doc["methods"]["orb-default"]
-    assert m["runs"] == 1 and m["failed_runs"] in (0, 1) and m["ms_per_frame"] > 0
+    assert doc["runs"] == 1 and doc["conditions"] == ["none"]
+    m = doc["methods"]["orb-default"]["by_condition"]["none"]
+    assert len(m["ate_runs"]) + m["failed_runs"] == 1 and m["extraction_ms_mean"] > 0
     assert set(doc["methods"]) == {"orb-default", "orb-dyn"}
-    assert (out / "table.md").read_text().startswith("| Method |")
+    assert "\n| Method |" in (out / "table.md").read_text()
     assert (out / "runs.csv").exists() and json.loads((out / "result.json").read_text())["sequence"] == "01"
     assert (out / "selections.csv").read_text().startswith("method,budget_ms")  # header only: no nfex run
+    frames = (out / "frames.csv").read_text().splitlines()
+    assert len(frames) == 1 + 2 * 6  # a header, then a row per method and frame
 
 
 def test_nfex_evaluate_unknown_method_exits_2(cli_env: dict[str, str], data_dir: Path, tmp_path: Path) -> None:
@@ -38,11 +41,11 @@ def test_nfex_evaluate_xfeat_default_runs_and_without_weights_exits_2(cli_env: d
     if not availability(Settings.from_env()).ok:
         pytest.skip("the learned extra is not installed")
     args = ["evaluate", str(data_dir / "kitti"), "--sequence", "01", "--frames", "4", "--methods", "xfeat-default",
-            "--out", str(tmp_path / "ev"), "--json", "--no-plots"]
+            "--runs", "1", "--out", str(tmp_path / "ev"), "--json", "--no-plots"]
     r = run_cli(args, cli_env)
     assert r.returncode == 0, r.stderr
-    m = json.loads(r.stdout)["methods"]["xfeat-default"]
-    assert m["runs"] == 1 and m["ms_per_frame"] > 0
+    m = json.loads(r.stdout)["methods"]["xfeat-default"]["by_condition"]["none"]
+    assert len(m["ate_runs"]) + m["failed_runs"] == 1 and m["extraction_ms_mean"] > 0
     missing = run_cli(args, {**cli_env, "NFEX_XFEAT_WEIGHTS": str(tmp_path / "gone.pt")})
     assert missing.returncode == 2, missing.stderr
     assert "gone.pt" in missing.stderr and "Traceback" not in missing.stderr and len(missing.stderr.strip().splitlines()) == 1

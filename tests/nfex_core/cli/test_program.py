@@ -37,7 +37,7 @@ def test_check_lists_every_unknown_name_once_on_stderr_only(cli_env: dict[str, s
     assert p.returncode == 2
     assert p.stdout == ""  # results only on stdout; each problem printed once, on stderr
     assert p.stderr.splitlines() == [
-        f"nfex: unknown name: {f}:2:7: unknown extractor 'SURF'; known: AKAZE, BRISK, ORB, ORB_GRID, SIFT",
+        f"nfex: unknown name: {f}:2:7: unknown extractor 'SURF'; known: AKAZE, BRISK, ORB, ORB_GRID, SIFT, XFEAT",
         f"nfex: unknown name: {f}:3:39: unknown value of light 'dim'; known: bright, dark",
     ]
 

@@ -1,25 +1,60 @@
+"""``evaluate`` end to end on a synthetic sequence: paired runs, a schedule, oracles, the held-out scope."""
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
 
-from nfex_core.datasets import open_sequence
-from nfex_core.evaluation import evaluate, markdown
+from nfex_core.datasets.synthetic import make_sequence
+from nfex_core.evaluation import SCHEDULE, as_json, evaluate, frames_csv, markdown
 from nfex_core.evaluation.plots import draw
 from nfex_core.kg import KnowledgeGraph
 
+from .conftest import add_rows, measured_row
 
-@pytest.mark.slow
-def test_evaluate_runs_methods_corruptions_and_runs(kg: KnowledgeGraph, data_dir: Path, tmp_path: Path) -> None:
-    seq = open_sequence(data_dir / "kitti", "kitti", "01")
-    ev = evaluate(seq, kg, methods=["orb-default", "sift-default"], runs=2, corruptions=["none", "dark"], frames=6)
-    assert len(ev.records) == 8 and ev.frames == 6
-    assert {(r.method, r.corruption) for r in ev.records} == {
-        (m, c) for m in ("orb-default", "sift-default") for c in ("none", "dark")}
-    ok = [r for r in ev.records if not r.failed]
-    assert ok and all(r.ate_rmse is not None and r.ate_rmse >= 0 and r.ms_per_frame > 0 for r in ok)
-    assert "SIFT (default)" in markdown(ev)
+
+@pytest.fixture
+def seq():  # type: ignore[no-untyped-def]
+    return make_sequence(8, width=192, height=128, context={"agent": "car", "scene": "outdoor"})
+
+
+def test_evaluate_pairs_runs_and_reports_segments_transitions_and_oracles(bare_kg: KnowledgeGraph, seq, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    # measured on this very sequence: the evaluation must hold it out from every method
+    add_rows(bare_kg, [measured_row(bare_kg, "ORB", {"nfeatures": 1500}, 0.01, f"x{i}", dataset=seq.dataset,
+                                    sequence=seq.name) for i in range(3)])
+    ev = evaluate(seq, bare_kg, methods=["orb-default", "orb-dyn", "sift-default", "nfex"], runs=2,
+                  schedule="none:0-3,dark:4-7", corruptions=["none"], oracle=True)
+    assert ev.conditions == ["none", SCHEDULE] and ev.runs == 2 and "sequence_synthetic_planes_0" in ev.scope
+    assert ev.checks.startswith("agent car")
+    keys = {r.key for r in ev.records}
+    assert keys == {"orb-default", "orb-dyn", "sift-default", "nfex", "oracle-segment", "oracle-pair"}
+    assert len(ev.records) == 2 * 2 * 6
+    sched = [r for r in ev.records if r.condition == SCHEDULE]
+    assert all([s["segment"] for s in r.segments] == ["none:0-3", "dark:4-7"] for r in sched)
+    assert all(len(r.transitions) == 1 and r.transitions[0]["transition"] == "none→dark" for r in sched)
+    nfex = [r for r in ev.records if r.method == "nfex"]
+    assert all(s["params"].get("nfeatures") != 1500 for r in nfex for s in r.selections if s["extractor"] == "ORB")
+    dyn = [r for r in ev.records if r.method == "orb-dyn"]
+    assert all(f.params["nfeatures"] != 1500 for r in dyn for f in r.result.frames)  # type: ignore[union-attr]
+    best = ev.best_static("none")
+    assert best in ("orb-default", "orb-dyn", "sift-default")
+    md = markdown(ev)
+    assert "Wilcoxon" in md and "Per segment" in md and "Transition pairs" in md and "Headroom" in md
+    js = as_json(ev)
+    assert js["best_static"]["none"] == best and json.dumps(js)
+    assert len(js["methods"]["nfex"]["by_condition"]["none"]["ate_runs"]) == 2
+    assert frames_csv(ev).count("\n") == 1 + len(ev.records) * 8
     names = {p.name for p in draw(ev, tmp_path)}
-    assert {"trajectories.png", "ate.png", "accuracy_vs_cost.png"} <= names
-    assert all((tmp_path / n).stat().st_size > 1000 for n in names)
+    assert {"trajectories.png", "ate.png", "extractor_per_frame.png", "accuracy_vs_cost.png"} <= names
+
+
+def test_the_same_seed_gives_the_same_run(bare_kg: KnowledgeGraph, seq) -> None:  # type: ignore[no-untyped-def]
+    a = evaluate(seq, bare_kg, methods=["orb-default"], runs=2, corruptions=["dark"])
+    b = evaluate(seq, bare_kg, methods=["orb-default"], runs=2, corruptions=["dark"])
+    assert [r.ate_rmse for r in a.records] == [r.ate_rmse for r in b.records]
+
+
+def test_checks_can_be_turned_off(bare_kg: KnowledgeGraph, seq) -> None:  # type: ignore[no-untyped-def]
+    ev = evaluate(seq, bare_kg, methods=["orb-default"], runs=1, checks=False)
+    assert ev.checks == "off"

@@ -23,7 +23,7 @@ def test_seed_query_commit_rollback_over_http(sparql_server: SparqlServer) -> No
     kg = sparql_server.open()
     assert kg.version == 1
     params = kg.select("SELECT ?p WHERE { ?p a nfex:Parameter }")
-    assert len(params) == 37  # ORB 9, ORB_GRID 11, SIFT 6, AKAZE 8, BRISK 3
+    assert len(params) == 40  # ORB 9, ORB_GRID 11, SIFT 6, AKAZE 8, BRISK 3, XFEAT 3
     before = set(kg.data_graph())
     assert kg.add(parse_rdf(CONFIG), author="a").version == 2
     with pytest.raises(ValidationFailed):

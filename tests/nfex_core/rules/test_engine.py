@@ -4,10 +4,12 @@ from __future__ import annotations
 import pytest
 from rdflib import Literal
 
+from nfex_core.config import Settings
 from nfex_core.errors import BadInput, ParseError
 from nfex_core.kg import KnowledgeGraph, parse_rdf
 from nfex_core.rules.engine import RuleEngine, compile_table
 from nfex_core.rules.pruning import check_rule, contextualise
+from nfex_core.vision.backends import backend
 
 N = "https://w3id.org/nfex#"
 P = """@prefix nfex: <https://w3id.org/nfex#> . @prefix sosa: <http://www.w3.org/ns/sosa/> .
@@ -59,7 +61,10 @@ nfex:m_e a nfex:Measurement ; sosa:usedProcedure nfex:cfg_e ; nfex:sequence nfex
 def test_every_context_is_compiled(kg: KnowledgeGraph) -> None:
     table = compile_table(kg)
     assert len(table.decisions) == 4 * 3 * 3 * 3 * 3 * 4
-    assert table.decide({}).candidates == ("AKAZE", "BRISK", "ORB", "ORB_GRID", "SIFT")
+    xfeat = backend("xfeat").availability(Settings.from_env())
+    decision = table.decide({})
+    assert decision.candidates == ("AKAZE", "BRISK", "ORB", "ORB_GRID", "SIFT") + (("XFEAT",) if xfeat.ok else ())
+    assert xfeat.ok or "XFEAT" in decision.pruned  # a missing backend is pruned with its reason, not dropped
 
 
 def test_measured_tracking_loss_prunes_after_a_commit_and_rollback_restores(kg: KnowledgeGraph) -> None:

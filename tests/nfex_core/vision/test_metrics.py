@@ -120,8 +120,10 @@ def test_pure_translation_gives_the_expected_motion(name: str, registry: Extract
     grid = np.array([[x, y] for x in (50, 300, 550) for y in (50, 200, 350)], np.float64)
     np.testing.assert_allclose(M._project(corr.homography, grid), grid - [dx, dy], atol=M.EPSILON)  # H is as good as its inlier tolerance
     # a grid-spread selection keeps a quota per cell, so under a shift features near cell borders are
-    # re-chosen: fewer of them match (measured 0.49 for ORB_GRID against > 0.6 for plain ORB)
-    assert m["repeatability"] > 0.7 and m["stability"] > (0.4 if registry.spec(name).parameters.keys() & {"gridCellSize"} else 0.5)
+    # re-chosen: fewer of them match (measured 0.49 for ORB_GRID against > 0.6 for plain ORB); XFeat's
+    # keypoint head likewise picks at most one keypoint per 8×8 cell (measured 0.49 under this shift)
+    celled = registry.spec(name).parameters.keys() & {"gridCellSize"} or registry.spec(name).backend == "xfeat"
+    assert m["repeatability"] > 0.7 and m["stability"] > (0.4 if celled else 0.5)
 
 
 def test_temporal_metrics_on_real_kitti_frames_degrade_with_the_gap(registry: ExtractorRegistry, data_dir: Path) -> None:

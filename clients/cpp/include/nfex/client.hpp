@@ -71,7 +71,7 @@ struct Feedback {
 
 class Client {
 public:
-    /// `url`: the service's base URL; `token`: a bearer token (reads and feedback need none).
+    /// `url`: the service's base URL; `token`: a bearer token (reads need none; feedback needs the reporter role).
     explicit Client(std::string url, std::string token = "", Options options = {});
     ~Client();
     Client(Client&&) noexcept;

@@ -4,8 +4,8 @@ from __future__ import annotations
 import pytest
 
 from nfex_core.config import Settings
-from nfex_core.kg.vocab import Vocabulary
 from nfex_core.kg.shipped import ontology_vocabulary
+from nfex_core.kg.vocab import Vocabulary
 
 
 @pytest.fixture(scope="session")
