@@ -81,7 +81,7 @@ bench: install-dev
 
 lint: install-dev
 	$(BIN)/ruff check nfex_core service clients tests bench
-	$(BIN)/mypy
+	$(BIN)/mypy nfex_core service clients/python/nfex_client clients/slam/nfex_slam
 
 clean:
 	rm -rf $(VENV) build *.egg-info $(CPP_BUILD)

@@ -22,8 +22,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from nfex_core.kg import KnowledgeGraph  # noqa: E402
-from nfex_core.knowledge import open_graph
+from nfex_core.knowledge import open_graph  # noqa: E402
 from nfex_core.neural.artifacts import NeuralModel, find_model  # noqa: E402
 from nfex_core.neural.selectornet import IMAGE_HW, numeric_input  # noqa: E402
 from nfex_core.neural.serve import NeuralStep  # noqa: E402

@@ -29,7 +29,6 @@ from _graphs import bulk  # noqa: E402
 from _timing import per_call_us  # noqa: E402
 
 from nfex_core.advisor import Advisor  # noqa: E402
-from nfex_core.kg import KnowledgeGraph  # noqa: E402
 from nfex_core.knowledge import open_graph
 from nfex_core.rules import pruning  # noqa: E402
 from nfex_core.rules.engine import RuleEngine  # noqa: E402

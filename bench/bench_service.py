@@ -39,8 +39,7 @@ from _timing import call_ms  # noqa: E402
 from nfex_core.advisor import Advisor  # noqa: E402
 from nfex_core.advisor.scoring import SCORE_PIXELS  # noqa: E402
 from nfex_core.config import Settings  # noqa: E402
-from nfex_core.kg import KnowledgeGraph  # noqa: E402
-from nfex_core.knowledge import open_graph
+from nfex_core.knowledge import open_graph  # noqa: E402
 
 QUERY = """PREFIX nfex: <https://w3id.org/nfex#>
 SELECT ?x ?p ?default WHERE { ?p a nfex:Parameter ; nfex:parameterOf ?x ; nfex:defaultValue ?default } ORDER BY ?x ?p"""

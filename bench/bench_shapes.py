@@ -24,9 +24,8 @@ import time
 import rdflib
 
 from nfex_core.advisor import Advisor
-from nfex_core.kg import KnowledgeGraph
-from nfex_core.knowledge import open_graph
 from nfex_core.kg.validation import _run_pyshacl, shapes_closure
+from nfex_core.knowledge import open_graph
 from nfex_core.rules.engine import compile_table
 from nfex_core.rules.shape_check import enforce, materialise
 from nfex_core.rules.shapes import context_shape_nodes, load_context_shapes

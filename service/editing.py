@@ -41,7 +41,7 @@ def describe(kg: KnowledgeGraph, roots: set[URIRef]) -> set[Triple]:
 
 def subjects_of(kg: KnowledgeGraph, predicate: URIRef, obj: URIRef) -> set[URIRef]:
     rows = kg.backend.select(f"SELECT ?s WHERE {{ ?s {n3(predicate)} {n3(obj)} }}").rows
-    return {r["s"] for r in rows if isinstance(r["s"], URIRef)}  # type: ignore[misc]
+    return {r["s"] for r in rows if isinstance(r["s"], URIRef)}
 
 
 def replace(kg: KnowledgeGraph, old: set[Triple], new: frozenset[Triple] | set[Triple]) -> ChangeSet:

@@ -97,7 +97,7 @@ def bearer(request: Request, _: Annotated[HTTPAuthorizationCredentials | None, D
     authorization = request.headers.get("authorization")
     if not authorization:
         return None
-    scheme, _, given = authorization.strip().partition(" ")
+    scheme, _space, given = authorization.strip().partition(" ")
     if scheme.lower() != "bearer" or not given.strip():
         raise Unauthorized("the Authorization header must be 'Bearer <token>'")
     book: TokenBook = request.app.state.tokens

@@ -113,7 +113,7 @@ class ScheduledSequence(Sequence):
     def __len__(self) -> int:
         return len(self.base)
 
-    def __getitem__(self, i):  # type: ignore[no-untyped-def]
+    def __getitem__(self, i):
         if isinstance(i, slice):
             raise BadInput("slice the sequence before applying a schedule (the schedule's ranges are its positions)")
         seg = self.schedule.segment_of(int(i))

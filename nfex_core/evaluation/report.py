@@ -224,7 +224,7 @@ def as_json(ev: Evaluation) -> dict[str, Any]:
                 "extraction_ms_mean": float(np.mean([r.extraction_ms for r in recs])),
                 "extraction_ms_max": max(r.extraction_max_ms for r in recs),
                 "matching_ms_mean": float(np.mean([r.matching_ms for r in recs])),
-                "expected_ms_mean": (float(np.mean([r.expected_ms for r in recs]))  # type: ignore[arg-type]
+                "expected_ms_mean": (float(np.mean([r.expected_ms for r in recs]))
                                      if all(r.expected_ms is not None for r in recs) else None),
                 "lost_pairs": sum(r.lost for r in recs), "rejected_pairs": sum(r.rejected for r in recs),
                 "segments": [r.segments for r in recs] if recs[0].segments else None,

@@ -212,7 +212,7 @@ class EmbeddedBackend(Backend):
         res = self._run(query)
         if isinstance(res, ox.QueryTriples):
             media = media if media in GRAPH_FORMATS else "text/turtle"
-            res.serialize(out, format=GRAPH_FORMATS[media])
+            res.serialize(out, format=GRAPH_FORMATS[media])  # type: ignore[arg-type]  # any object with write(bytes)
         else:
             media = media if media in RESULT_FORMATS else "application/sparql-results+json"
             res.serialize(out, format=RESULT_FORMATS[media])

@@ -6,6 +6,7 @@ and to let users write ``nfex:ORB`` without a PREFIX line.
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 
 from ..errors import BadInput, ParseError
 from ..namespaces import PREFIXES
@@ -114,6 +115,7 @@ def _oxigraph_position(text: str) -> tuple[int, int] | None:
     import pyoxigraph
 
     store = pyoxigraph.Store()
+    run: Callable[[str], object]
     try:
         classify(text)
         run = store.query

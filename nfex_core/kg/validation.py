@@ -287,7 +287,7 @@ def validate_change(backend: Backend, change: ChangeSet, shapes: Shapes) -> Repo
     view = CandidateView(backend, change)
 
     focus: set[Node] = {s for s in change.subjects() if isinstance(s, URIRef)}
-    frontier = set(focus)
+    frontier: set[Node] = set(focus)
     for _ in range(BACKWARD_DEPTH):
         referrers = {t[0] for t in view.incoming(frontier)} - focus
         focus |= referrers
@@ -301,7 +301,8 @@ def validate_change(backend: Backend, change: ChangeSet, shapes: Shapes) -> Repo
     for _ in range(FORWARD_DEPTH):
         triples = view.outgoing(frontier)
         data |= triples
-        nxt = {t[2] for t in triples if isinstance(t[2], URIRef) and t[1] != RDF.type} - reached
+        nxt: set[Node] = {t[2] for t in triples if isinstance(t[2], URIRef) and t[1] != RDF.type}
+        nxt -= reached
         reached |= nxt
         frontier = nxt
         if not frontier:

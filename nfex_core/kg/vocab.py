@@ -306,8 +306,8 @@ class Vocabulary:
                 ?r nfex:normParameter/nfex:opencvName ?pname ; nfex:matchNorm ?norm ; nfex:whenValue ?v .
             } GROUP BY ?xname ?pname ?norm"""
         ).rows:
-            values = tuple(_parse_number(v) for v in str(r["vals"]).split())
-            norm_rules.setdefault(str(r["xname"]), []).append(NormRuleSpec(str(r["pname"]), values, str(r["norm"])))
+            when = tuple(_parse_number(v) for v in str(r["vals"]).split())
+            norm_rules.setdefault(str(r["xname"]), []).append(NormRuleSpec(str(r["pname"]), when, str(r["norm"])))
 
         ops: dict[str, list[str]] = {}
         for r in kg.select("SELECT ?xname ?op WHERE { ?x a nfex:FeatureExtractor ; nfex:token ?xname ; nfex:performs ?op }").rows:
@@ -348,14 +348,14 @@ class Vocabulary:
                 OPTIONAL { ?v rdfs:label ?label } OPTIONAL { ?v nfex:ordinal ?ord }
             } ORDER BY ?dname ?ord ?name"""
         ).rows:
-            spec = ConditionValueSpec(
+            value = ConditionValueSpec(
                 iri=r["v"],  # type: ignore[arg-type]
                 dimension=str(r["dname"]),
                 name=str(r["name"]),
                 label=str(r.get("label", "")),
                 ordinal=int(py(r["ord"])) if "ord" in r else None,
             )
-            values.setdefault(spec.dimension, {})[spec.name] = spec
+            values.setdefault(value.dimension, {})[value.name] = value
         dimensions: dict[str, DimensionSpec] = {}
         for r in kg.select(
             """SELECT ?d ?name ?label ?est WHERE {

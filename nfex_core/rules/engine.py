@@ -193,7 +193,7 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
         for i, found in hits.items():
             for x, reason in found:
                 spec = vocab.by_iri.get(URIRef(x))
-                if spec is not None:
+                if isinstance(spec, ExtractorSpec):
                     pruned_by_rules.setdefault(i, []).append((spec.name, Citation(str(rule.iri), rule.label, reason, "sparql", rule.source)))
 
     statements = load_statements(kg, vocab)
@@ -227,9 +227,9 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
         in_force = tuple(sh for sh in shapes if sh.applies(context))
         for sh in in_force:  # a prohibition prunes here; bounds are checked per candidate Θ′
             if sh.bound is None:
-                for x in vocab.extractors:
-                    if sh.concerns(x):
-                        pruned.setdefault(x, []).append(sh.citation)
+                for name in vocab.extractors:
+                    if sh.concerns(name):
+                        pruned.setdefault(name, []).append(sh.citation)
         decisions[key] = Decision(
             context=context,
             candidates=tuple(x for x in vocab.extractors if x not in pruned),

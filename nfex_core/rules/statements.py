@@ -11,10 +11,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from rdflib.term import Literal, URIRef
+from rdflib.term import Literal, Node, URIRef
 
 from ..kg.terms import py
-from ..kg.vocab import Vocabulary
+from ..kg.vocab import ExtractorSpec, MetricSpec, ParameterSpec, Vocabulary
 from .types import ConditionAtom
 
 if TYPE_CHECKING:
@@ -69,27 +69,27 @@ def load_statements(kg: KnowledgeGraph, vocab: Vocabulary) -> list[CompiledState
             OPTIONAL { ?s nfex:bound ?bound } OPTIONAL { ?s nfex:comparator ?cmp } OPTIONAL { ?s nfex:shape ?shape }
         }"""
     ).rows
-    atoms: dict[URIRef, dict[URIRef, tuple[str, set[str], bool]]] = {}
+    atoms: dict[Node, dict[Node, tuple[str, set[str], bool]]] = {}
     for r in kg.select(
         """SELECT ?s ?a ?dim ?v ?neg WHERE {
             ?s nfex:hasCondition ?a . ?a nfex:dimension/nfex:token ?dim ; nfex:oneOf/nfex:token ?v .
             OPTIONAL { ?a nfex:negated ?neg }
         }"""
     ).rows:
-        entry = atoms.setdefault(r["s"], {}).setdefault(r["a"], (str(r["dim"]), set(), bool(py(r.get("neg", Literal(False))))))  # type: ignore[arg-type]
+        entry = atoms.setdefault(r["s"], {}).setdefault(r["a"], (str(r["dim"]), set(), bool(py(r.get("neg", Literal(False))))))
         entry[1].add(str(r["v"]))
 
     out: list[CompiledStatement] = []
     for r in rows:
         kind = KINDS[str(r["type"]).rsplit("#", 1)[-1]]
         extractor = parameter = metric = None
-        if "x" in r and r["x"] in vocab.by_iri:
-            extractor = vocab.by_iri[r["x"]].name  # type: ignore[attr-defined]
-        if "p" in r and r["p"] in vocab.by_iri:
-            spec = vocab.by_iri[r["p"]]
-            extractor, parameter = spec.extractor, spec.name  # type: ignore[attr-defined]
-        if "m" in r and r["m"] in vocab.by_iri:
-            metric = vocab.by_iri[r["m"]].name  # type: ignore[attr-defined]
+        x, p, m = (vocab.by_iri.get(URIRef(str(r[k]))) if k in r else None for k in ("x", "p", "m"))
+        if isinstance(x, ExtractorSpec):
+            extractor = x.name
+        if isinstance(p, ParameterSpec):
+            extractor, parameter = p.extractor, p.name
+        if isinstance(m, MetricSpec):
+            metric = m.name
         value = next((py(r[k]) for k in ("factor", "weight", "bonus", "bound") if k in r), None)
         source = None
         if "file" in r:

@@ -5,7 +5,7 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
-CONTEXT_EXAMPLE = {"agent": "car", "motion": "fast", "scene": "outdoor", "light": "bright"}
+CONTEXT_EXAMPLE: dict[str, Any] = {"agent": "car", "motion": "fast", "scene": "outdoor", "light": "bright"}
 
 
 class SelectRequest(BaseModel):

@@ -106,74 +106,74 @@ class NfexClient:
     # -- selection and streams
     def select(self, context: Context | None = None, frame: Any = None) -> Selection:
         """α, Θ′ and why, for a context and optionally a frame (numpy array, or PNG/JPEG bytes)."""
-        return self._do(_Requests.select(context, frame))  # type: ignore[no-any-return]
+        return self._do(_Requests.select(context, frame))
 
     def open_session(self, context: Context | None = None, client: str | None = None) -> Session:
-        return self._json("POST", "/v1/sessions", json={"context": dict(context or {}), "client": client})  # type: ignore[no-any-return]
+        return self._json("POST", "/v1/sessions", json={"context": dict(context or {}), "client": client})
 
     def session_frame(self, session_id: str, frame: Any, context: Context | None = None) -> SessionSelection:
-        return self._do(_Requests.session_frame(session_id, frame, context))  # type: ignore[no-any-return]
+        return self._do(_Requests.session_frame(session_id, frame, context))
 
     def close_session(self, session_id: str) -> None:
         self._do(Call("DELETE", f"/v1/sessions/{session_id}", {}, "none"))
 
     def feedback(self, **fields: Any) -> WriteResult:
         """Report a measured result (extractor, params, context, window, ate_rmse, tracking_lost…)."""
-        return self._json("POST", "/v1/feedback", json=fields)  # type: ignore[no-any-return]
+        return self._json("POST", "/v1/feedback", json=fields)
 
     # -- reading
     def health(self) -> Health:
-        return self._json("GET", "/healthz")  # type: ignore[no-any-return]
+        return self._json("GET", "/healthz")
 
     def ready(self) -> Ready:
-        return self._json("GET", "/readyz")  # type: ignore[no-any-return]
+        return self._json("GET", "/readyz")
 
     def vocabulary(self) -> Vocabulary:
-        return self._json("GET", "/v1/vocabulary")  # type: ignore[no-any-return]
+        return self._json("GET", "/v1/vocabulary")
 
     def sparql(self, query: str, accept: str = "application/sparql-results+json") -> Any:
         """JSON results as a dict; other formats (CSV, Turtle…) as text."""
         return self._do(_Requests.sparql(query, accept))
 
     def versions(self, limit: int = 100) -> list[VersionInfo]:
-        return self._json("GET", "/v1/graph/versions", params={"limit": limit})["versions"]  # type: ignore[no-any-return]
+        return self._json("GET", "/v1/graph/versions", params={"limit": limit})["versions"]
 
     def graph_version(self) -> int:
         return int(self._json("GET", "/v1/graph")["version"])
 
     def diff(self, since: int, until: int | None = None) -> Diff:
         params = {"since": since, **({"until": until} if until is not None else {})}
-        return self._json("GET", "/v1/graph/diff", params=params)  # type: ignore[no-any-return]
+        return self._json("GET", "/v1/graph/diff", params=params)
 
     # -- editing (token with the editor role)
     def update(self, update: str, *, if_match: int | None = None) -> WriteResult:
-        return self._do(_Requests.update(update, if_match))  # type: ignore[no-any-return]
+        return self._do(_Requests.update(update, if_match))
 
     def rollback(self, to: int, *, if_match: int | None = None) -> WriteResult:
-        return self._json("POST", "/v1/graph/rollback", json={"to": to}, headers=_if_match(if_match))  # type: ignore[no-any-return]
+        return self._json("POST", "/v1/graph/rollback", json={"to": to}, headers=_if_match(if_match))
 
     def put_rule(self, rule_id: str, label: str, query: str, *, comment: str | None = None, enabled: bool = True,
                  if_match: int | None = None) -> WriteResult:
         body = {"label": label, "query": query, "comment": comment, "enabled": enabled}
-        return self._json("PUT", f"/v1/rules/{rule_id}", json=body, headers=_if_match(if_match))  # type: ignore[no-any-return]
+        return self._json("PUT", f"/v1/rules/{rule_id}", json=body, headers=_if_match(if_match))
 
     def delete_rule(self, rule_id: str, *, if_match: int | None = None) -> WriteResult:
-        return self._json("DELETE", f"/v1/rules/{rule_id}", headers=_if_match(if_match))  # type: ignore[no-any-return]
+        return self._json("DELETE", f"/v1/rules/{rule_id}", headers=_if_match(if_match))
 
     def add_condition_value(self, dimension: str, name: str, label: str | None = None, *, if_match: int | None = None) -> WriteResult:
-        return self._json("POST", f"/v1/conditions/{dimension}/values", json={"name": name, "label": label},  # type: ignore[no-any-return]
+        return self._json("POST", f"/v1/conditions/{dimension}/values", json={"name": name, "label": label},
                           headers=_if_match(if_match))
 
     def patch_parameter(self, extractor: str, parameter: str, *, if_match: int | None = None, **fields: Any) -> WriteResult:
-        return self._json("PATCH", f"/v1/extractors/{extractor}/parameters/{parameter}", json=fields,  # type: ignore[no-any-return]
+        return self._json("PATCH", f"/v1/extractors/{extractor}/parameters/{parameter}", json=fields,
                           headers=_if_match(if_match))
 
     def put_extractor(self, name: str, turtle: str, *, if_match: int | None = None) -> WriteResult:
-        return self._json("PUT", f"/v1/extractors/{name}", content=turtle.encode(),  # type: ignore[no-any-return]
+        return self._json("PUT", f"/v1/extractors/{name}", content=turtle.encode(),
                           headers={"Content-Type": "text/turtle", **_if_match(if_match)})
 
     def put_program(self, name: str, text: str, *, if_match: int | None = None) -> WriteResult:
-        return self._json("PUT", f"/v1/programs/{name}", content=text.encode(),  # type: ignore[no-any-return]
+        return self._json("PUT", f"/v1/programs/{name}", content=text.encode(),
                           headers={"Content-Type": "text/plain", **_if_match(if_match)})
 
 
@@ -197,31 +197,31 @@ class AsyncNfexClient:
         return _result(call, await self.http.request(call.method, call.path, **call.kwargs))
 
     async def select(self, context: Context | None = None, frame: Any = None) -> Selection:
-        return await self._do(_Requests.select(context, frame))  # type: ignore[no-any-return]
+        return await self._do(_Requests.select(context, frame))
 
     async def open_session(self, context: Context | None = None, client: str | None = None) -> Session:
-        return await self._do(Call("POST", "/v1/sessions", {"json": {"context": dict(context or {}), "client": client}}))  # type: ignore[no-any-return]
+        return await self._do(Call("POST", "/v1/sessions", {"json": {"context": dict(context or {}), "client": client}}))
 
     async def session_frame(self, session_id: str, frame: Any, context: Context | None = None) -> SessionSelection:
-        return await self._do(_Requests.session_frame(session_id, frame, context))  # type: ignore[no-any-return]
+        return await self._do(_Requests.session_frame(session_id, frame, context))
 
     async def close_session(self, session_id: str) -> None:
         await self._do(Call("DELETE", f"/v1/sessions/{session_id}", {}, "none"))
 
     async def feedback(self, **fields: Any) -> WriteResult:
-        return await self._do(Call("POST", "/v1/feedback", {"json": fields}))  # type: ignore[no-any-return]
+        return await self._do(Call("POST", "/v1/feedback", {"json": fields}))
 
     async def ready(self) -> Ready:
-        return await self._do(Call("GET", "/readyz", {}))  # type: ignore[no-any-return]
+        return await self._do(Call("GET", "/readyz", {}))
 
     async def vocabulary(self) -> Vocabulary:
-        return await self._do(Call("GET", "/v1/vocabulary", {}))  # type: ignore[no-any-return]
+        return await self._do(Call("GET", "/v1/vocabulary", {}))
 
     async def sparql(self, query: str, accept: str = "application/sparql-results+json") -> Any:
         return await self._do(_Requests.sparql(query, accept))
 
     async def update(self, update: str, *, if_match: int | None = None) -> WriteResult:
-        return await self._do(_Requests.update(update, if_match))  # type: ignore[no-any-return]
+        return await self._do(_Requests.update(update, if_match))
 
     async def rollback(self, to: int, *, if_match: int | None = None) -> WriteResult:
-        return await self._do(Call("POST", "/v1/graph/rollback", {"json": {"to": to}, "headers": _if_match(if_match)}))  # type: ignore[no-any-return]
+        return await self._do(Call("POST", "/v1/graph/rollback", {"json": {"to": to}, "headers": _if_match(if_match)}))

@@ -62,7 +62,7 @@ def service_registry(client: NfexClient, base_url: str) -> Any:
     from nfex_core.kg.vocab import Vocabulary
     from nfex_core.vision.registry import ExtractorRegistry
 
-    return ExtractorRegistry.from_vocabulary(Vocabulary.load(_ServiceGraph(client, base_url)))  # type: ignore[arg-type]
+    return ExtractorRegistry.from_vocabulary(Vocabulary.load(_ServiceGraph(client, base_url)))
 
 
 def _ate(sequence: Any, result: Any) -> float | None:
