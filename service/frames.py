@@ -9,20 +9,13 @@ from fastapi import Request
 from pydantic import ValidationError
 from starlette.datastructures import UploadFile
 
-from nfex_core.advisor import Advisor, FrameState, Selection
-from nfex_core.errors import BadInput, NfexError
+from nfex_core.advisor import Selection
+from nfex_core.errors import BadInput
 
 from .bodies import media_type
 from .config import Settings
 from .images import PayloadTooLarge, UnsupportedMediaType, decode_frame
 from .schemas import SelectRequest
-
-
-class NotImplementedFeature(NfexError):
-    status = 501
-    type = "not-implemented"
-    title = "Not implemented in this build"
-    exit_code = 3
 
 
 def parse_context(text: str | bytes | None) -> dict[str, str | None]:
@@ -84,17 +77,6 @@ async def read_select(request: Request, settings: Settings, *, frame_required: b
     raise UnsupportedMediaType(
         f"send application/json ({{\"context\": …}}) or multipart/form-data (frame + context), not {media or 'nothing'!r}"
     )
-
-
-def run_advisor(advisor: Advisor, context: dict[str, Any], frame: np.ndarray | None, previous: FrameState | None = None) -> Selection:
-    try:
-        return advisor.select(context, frame, previous)
-    except ModuleNotFoundError as e:
-        if e.name and e.name.startswith("nfex_core.vision"):
-            raise NotImplementedFeature(
-                f"scoring a frame needs {e.name}, which this build lacks; send the context alone (JSON) for now"
-            ) from e
-        raise
 
 
 KEYPOINTS_SHOWN = 5000  # the strongest keypoints listed (by response); ``count`` gives them all

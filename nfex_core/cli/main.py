@@ -9,7 +9,7 @@ import click
 import typer
 
 from ..errors import NfexError
-from . import kg, sparql, validate
+from . import ate, evaluate, kg, program, select, serve, sparql, sweep, train, validate
 from .common import STORE_HELP, err, state
 
 app = typer.Typer(
@@ -41,33 +41,17 @@ def _options(
     state.debug = debug
 
 
+# Every command, listed here (each module keeps its heavy imports inside the command, so this stays fast).
 app.command("sparql")(sparql.sparql)
 app.command("validate")(validate.validate)
 app.add_typer(kg.app, name="kg")
-
-# Command groups added by later subsystems register here (module, attribute, name).
-# A module not written yet is skipped; tests/nfex_core/cli checks that every listed command exists.
-_PLUGINS: list[tuple[str, str, str]] = [
-    ("nfex_core.cli.serve", "serve", "serve"),
-    ("nfex_core.cli.select", "select", "select"),
-    ("nfex_core.cli.program", "app", "program"),
-    ("nfex_core.cli.ate", "ate", "ate"),
-    ("nfex_core.cli.sweep", "sweep", "sweep"),
-    ("nfex_core.cli.evaluate", "evaluate", "evaluate"),
-    ("nfex_core.cli.train", "train", "train"),
-]
-for module, attr, name in _PLUGINS:
-    try:
-        mod = __import__(module, fromlist=[attr])
-    except ModuleNotFoundError as e:
-        if e.name is None or not module.startswith(e.name):
-            raise
-        continue
-    obj = getattr(mod, attr)
-    if isinstance(obj, typer.Typer):
-        app.add_typer(obj, name=name)
-    else:
-        app.command(name)(obj)
+app.command("serve")(serve.serve)
+app.command("select")(select.select)
+app.add_typer(program.app, name="program")
+app.command("ate")(ate.ate)
+app.command("sweep")(sweep.sweep)
+app.command("evaluate")(evaluate.evaluate)
+app.command("train")(train.train)
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -13,16 +13,22 @@ def serve(
     log_level: Annotated[str, typer.Option(envvar="NFEX_LOG_LEVEL")] = "info",
 ) -> None:
     """Run the nFEX HTTP service (the store comes from --store / $NFEX_STORE)."""
-    import os
-
     import uvicorn
 
     from .common import state
 
+    # the app logs JSON itself (service/observability.py): keep uvicorn from installing its own handlers
+    if workers == 1:  # the settings go to the app object directly
+        from service.config import Settings
+        from service.main import create_app
+
+        app = create_app(Settings(store=state.store) if state.store else Settings())
+        uvicorn.run(app, host=host, port=port, log_level=log_level, log_config=None, access_log=False)
+        return
+    # several workers are processes that import the factory: only the environment reaches them
+    import os
+
     if state.store:
         os.environ["NFEX_STORE"] = state.store
-    # the app logs JSON itself (service/observability.py): keep uvicorn from installing its own handlers
-    uvicorn.run(
-        "service.main:create_app", factory=True, host=host, port=port, workers=workers, log_level=log_level,
-        log_config=None, access_log=False,
-    )
+    uvicorn.run("service.main:create_app", factory=True, workers=workers, host=host, port=port, log_level=log_level,
+                log_config=None, access_log=False)

@@ -6,7 +6,6 @@ replaces the program's statements as one SHACL-checked transaction (docs/dsl.md)
 """
 from __future__ import annotations
 
-import importlib
 import threading
 from typing import Any
 
@@ -14,29 +13,19 @@ from fastapi import APIRouter, Request, Response
 from fastapi.concurrency import run_in_threadpool
 
 from nfex_core.errors import NotFound, QueryLimitExceeded
+from nfex_core.rules.dsl import programs as programs_dsl
 
 from ..bodies import media_type, utf8_text
 from ..deps import EditorDep, IfMatchDep, KGDep
 from ..editing import check_name
-from ..frames import NotImplementedFeature
 from ..images import UnsupportedMediaType
 from ..schemas import PROBLEM_RESPONSES, Program, ProgramList, WriteResult, problems
 
-router = APIRouter(prefix="/v1/programs", tags=["editing: programs"], responses={**PROBLEM_RESPONSES, **problems(501)})
+router = APIRouter(prefix="/v1/programs", tags=["editing: programs"], responses=PROBLEM_RESPONSES)
 PROGRAM_EXAMPLE = 'adjust ORB.nfeatures by 1.5 when light is dark because "dark frames have fewer corners"\n'
 TEXT_BODY = {"requestBody": {"required": True, "content": {"text/plain": {"schema": {"type": "string"}, "example": PROGRAM_EXAMPLE}}}}
 PREVIEW_LIMIT = 500  # contexts listed in a preview (the counts cover all)
 _previews = threading.Semaphore(1)  # a preview compiles the rule table twice: one at a time per process
-
-
-def _dsl() -> Any:
-    """``nfex_core.rules.dsl.programs``, or 501 when this build lacks the DSL."""
-    try:
-        return importlib.import_module("nfex_core.rules.dsl.programs")
-    except ModuleNotFoundError as e:
-        if e.name and "nfex_core.rules.dsl.programs".startswith(e.name):
-            raise NotImplementedFeature("the rules DSL (nfex_core.rules.dsl) is not part of this build") from e
-        raise
 
 
 def _info(p: Any) -> dict[str, Any]:
@@ -45,12 +34,12 @@ def _info(p: Any) -> dict[str, Any]:
 
 @router.get("", summary="Every DSL program in the graph", response_model=ProgramList)
 def list_programs(kg: KGDep) -> dict[str, Any]:
-    return {"graph_version": kg.version, "programs": [_info(p) for p in _dsl().programs(kg)]}
+    return {"graph_version": kg.version, "programs": [_info(p) for p in programs_dsl.programs(kg)]}
 
 
 @router.get("/{name}", summary="One program: its statements as DSL text, read back from the graph", response_model=Program)
 def get_program(name: str, kg: KGDep) -> dict[str, Any]:
-    dsl = _dsl()
+    dsl = programs_dsl
     found = [p for p in dsl.programs(kg) if p.name == name]
     if not found:
         raise NotFound(f"no program {name!r}; GET /v1/programs lists them")
@@ -77,7 +66,7 @@ async def check_program(name: str, request: Request, kg: KGDep) -> dict[str, Any
     unknown name, the ``allowed`` names): a check that finds problems has still succeeded."""
     check_name("program", name)
     text = await _program_text(request)
-    program, found = await run_in_threadpool(_dsl().check_text, text, kg.vocabulary(), name=name)
+    program, found = await run_in_threadpool(programs_dsl.check_text, text, kg.vocabulary(), name=name)
     return {"name": name, "valid": not found, "statements": len(program.statements) if program is not None else None,
             "problems": [_problem(e) for e in found]}
 
@@ -87,7 +76,7 @@ async def check_program(name: str, request: Request, kg: KGDep) -> dict[str, Any
 async def preview_program(name: str, request: Request, kg: KGDep) -> dict[str, Any]:
     check_name("program", name)
     text = await _program_text(request)
-    dsl = _dsl()
+    dsl = programs_dsl
     if not _previews.acquire(blocking=False):
         raise QueryLimitExceeded("another preview is being computed; retry in a few seconds", limit="concurrency")
 
@@ -113,7 +102,7 @@ async def preview_program(name: str, request: Request, kg: KGDep) -> dict[str, A
 async def put_program(name: str, request: Request, kg: KGDep, token: EditorDep, expected: IfMatchDep) -> Response:
     check_name("program", name)
     text = await _program_text(request)
-    dsl = _dsl()
+    dsl = programs_dsl
 
     def work() -> tuple[bool, Any]:
         existed = any(p.name == name for p in dsl.programs(kg))
@@ -126,7 +115,7 @@ async def put_program(name: str, request: Request, kg: KGDep, token: EditorDep, 
 
 @router.delete("/{name}", summary="Remove a program and its statements", response_model=WriteResult, responses=problems(409, 412))
 def delete_program(name: str, kg: KGDep, token: EditorDep, expected: IfMatchDep) -> Response:
-    dsl = _dsl()
+    dsl = programs_dsl
     if not any(p.name == name for p in dsl.programs(kg)):
         raise NotFound(f"no program {name!r}")
     if expected is not None and expected != kg.version:

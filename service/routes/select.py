@@ -5,7 +5,7 @@ from fastapi import APIRouter, Request
 from fastapi.concurrency import run_in_threadpool
 
 from ..deps import AdvisorDep, SettingsDep
-from ..frames import keypoints_flag, keypoints_of, read_select, run_advisor
+from ..frames import keypoints_flag, keypoints_of, read_select
 from ..schemas import CONTEXT_EXAMPLE, PROBLEM_RESPONSES, Selection, problems
 
 router = APIRouter(prefix="/v1", tags=["selection"])
@@ -46,9 +46,9 @@ SELECT_BODY = {
 async def select(request: Request, advisor: AdvisorDep, settings: SettingsDep) -> object:
     context, frame = await read_select(request, settings)
     if frame is None and advisor.is_fresh():  # microseconds: a table lookup, not worth a thread hop
-        selection = run_advisor(advisor, context, None)
+        selection = advisor.select(context, None)
     else:
-        selection = await run_in_threadpool(run_advisor, advisor, context, frame)
+        selection = await run_in_threadpool(advisor.select, context, frame)
     out = selection.as_dict()
     if "keypoints" in request.query_params and keypoints_flag(request.query_params["keypoints"]):  # opt-in: off the hot path
         out["keypoints"] = await run_in_threadpool(keypoints_of, request.app.state.kg.vocabulary(), selection, frame)

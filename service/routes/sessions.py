@@ -7,7 +7,7 @@ from fastapi import APIRouter, Request, Response
 from fastapi.concurrency import run_in_threadpool
 
 from ..deps import AdvisorDep, SessionsDep, SettingsDep
-from ..frames import read_select, run_advisor
+from ..frames import read_select
 from ..schemas import PROBLEM_RESPONSES, Session, SessionCreate, SessionSelection, problems
 
 router = APIRouter(prefix="/v1/sessions", tags=["sessions"])
@@ -41,7 +41,7 @@ async def post_frame(session_id: str, request: Request, sessions: SessionsDep, a
 
     def work() -> dict[str, Any]:
         with session.lock:  # frames of one stream in order: each needs the state the last one left
-            selection = run_advisor(advisor, context, frame, session.state)
+            selection = advisor.select(context, frame, session.state)
             temporal = session.state is not None
             sessions.keep(session, selection.state)
             out = selection.as_dict()

@@ -124,7 +124,6 @@ def test_extractor_put_get_delete(service: Service) -> None:
 
 
 def test_program_resource_with_the_dsl(service: Service) -> None:
-    pytest.importorskip("nfex_core.rules.dsl")
     assert "default" in {p["name"] for p in httpx.get(service.url + "/v1/programs").json()["programs"]}
     text = 'adjust BRISK.thresh by 0.9 when agent is drone and scene is indoor because "pytest: indoor drones"\n'
     plain = {"content-type": "text/plain", **auth()}

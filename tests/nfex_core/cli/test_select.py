@@ -46,8 +46,6 @@ def test_errors_exit_by_kind(cli_env: dict[str, str], args: list[str], code: int
 
 
 def test_a_kitti_frame_with_context(cli_env: dict[str, str], data_dir: Path) -> None:
-    pytest.importorskip("nfex_core.vision.metrics")
-    pytest.importorskip("nfex_core.vision.context")
     frames = data_dir / "kitti" / "sequences" / "00" / "image_0"
     p = run_cli(["select", str(frames / "000010.png"), "--previous", str(frames / "000009.png"),
                  "--context", "agent=car,scene=outdoor", "--json"], cli_env)

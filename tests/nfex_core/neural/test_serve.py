@@ -82,7 +82,6 @@ def test_unknown_mode_lists_the_modes(kg: KnowledgeGraph) -> None:
 
 
 def test_with_a_kitti_frame(trained, kg: KnowledgeGraph, data_dir: Path) -> None:  # type: ignore[no-untyped-def]
-    pytest.importorskip("nfex_core.vision.metrics", reason="the frame path needs vision.metrics (branch wt-vision)")
     import cv2
 
     _, model = trained
