@@ -290,9 +290,12 @@ def sparql_server(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[Sp
 
 @pytest.fixture(scope="session")
 def data_dir() -> Path:
-    """../shared/data (or $NFEX_DATA); tests that need real sequences skip where it is absent."""
+    """../shared/data (or $NFEX_DATA); tests that need real sequences skip where it is absent — or fail,
+    with NFEX_REQUIRE_DATA=1 (CI sets it: a missing data folder must not pass as a green build)."""
     path = Settings.from_env().data
     if not path.is_dir():
+        if os.environ.get("NFEX_REQUIRE_DATA") == "1":
+            pytest.fail(f"dataset folder {path} is absent and NFEX_REQUIRE_DATA=1 (set NFEX_DATA)")
         pytest.skip(f"dataset folder {path} is absent (set NFEX_DATA)")
     return path
 

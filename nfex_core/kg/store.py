@@ -1,11 +1,9 @@
 """The knowledge graph: versioned, SHACL-guarded writes over an embedded or remote SPARQL store.
 
-Layout inside the store (the same for Oxigraph in a folder and for any SPARQL 1.1 server):
-
-- the **default graph** holds the knowledge itself: ontology, shapes, rules, programs, measurements;
-- ``<urn:nfex:meta>`` holds the head pointer ``<urn:nfex:head> nfex:versionNumber N`` and one
-  ``nfex:GraphVersion`` node per commit (author, time, message, counts);
-- ``<urn:nfex:version:N:added>`` / ``…:removed`` hold each version's change set.
+Layout inside the store (the same for Oxigraph in a folder and for any SPARQL 1.1 server): the
+**default graph** holds the knowledge itself (ontology, shapes, rules, programs, measurements); the
+version history lives in named graphs beside it (history.py: the head, one node per version, each
+version's change set).
 
 A commit is one SPARQL Update whose WHERE clause requires the head to still be the version the change
 was validated against (compare-and-swap). The update either applies entirely — data, change set,
@@ -20,12 +18,10 @@ import time
 import uuid
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from datetime import UTC, datetime
 from typing import Any, TypeVar
 
 import rdflib
-from rdflib.namespace import DCTERMS, PROV, RDF, XSD
-from rdflib.term import Literal, URIRef
+from rdflib.term import Literal
 
 from ..config import Settings
 from ..errors import BadInput, Conflict, NotFound, PreconditionFailed, StoreUnavailable, ValidationFailed
@@ -33,13 +29,14 @@ from ..namespaces import NFEX, PREFIXES
 from .backends import Backend, SelectResult, open_backend
 from .changes import ChangeSet, graph_triples
 from .claims import META as CLAIMS_META
-from .claims import Rival, settle_update, ttl_for
+from .claims import Rival, ttl_for
 from .claims import release as release_claim
 from .claims import rivals as rival_claims
 from .claims import take as take_claim
+from .history import HEAD, Version, prefix_block, read_changes, read_versions, version_iri, write_version
 from .sparql_guard import refuse_unsafe_change
 from .sparql_update import change_of_update
-from .terms import Triple, n3, py, triple_n3
+from .terms import Triple, n3, py
 from .validation import (
     Report,
     Shapes,
@@ -54,48 +51,7 @@ from .vocab import Vocabulary
 
 META = CLAIMS_META
 CLAIM_WAIT_S = 30.0  # the longest a writer waits on other writers' live claims (claims.py)
-HEAD = URIRef("urn:nfex:head")
 T = TypeVar("T")
-
-
-def version_iri(n: int) -> URIRef:
-    return URIRef(f"urn:nfex:version:{n}")
-
-
-def added_graph(n: int) -> URIRef:
-    return URIRef(f"urn:nfex:version:{n}:added")
-
-
-def removed_graph(n: int) -> URIRef:
-    return URIRef(f"urn:nfex:version:{n}:removed")
-
-
-STAGE_CHUNK = 1000  # triples per staging request (Virtuoso 7's parser gives up near 5,000)
-
-
-def staging_graph(commit_id: str, kind: str) -> URIRef:
-    """Where a commit's ``added`` or ``removed`` triples wait until it is applied (``_write_version``)."""
-    return URIRef(f"urn:nfex:staging:{commit_id}:{kind}")
-
-
-@dataclass(frozen=True)
-class Version:
-    number: int
-    author: str
-    time: datetime | None
-    message: str
-    added: int
-    removed: int
-
-    def as_dict(self) -> dict[str, Any]:
-        return {
-            "version": self.number,
-            "author": self.author,
-            "time": self.time.isoformat() if self.time else None,
-            "message": self.message,
-            "added": self.added,
-            "removed": self.removed,
-        }
 
 
 @dataclass(frozen=True)
@@ -107,10 +63,6 @@ class CommitResult:
     added: int = 0
     removed: int = 0
     report: Report | None = None
-
-
-def _prefix_block() -> str:
-    return "".join(f"PREFIX {p}: <{ns}>\n" for p, ns in PREFIXES.items())
 
 
 class KnowledgeGraph:
@@ -169,13 +121,13 @@ class KnowledgeGraph:
         return max(values) if values else 0
 
     def select(self, query: str, *, prefixes: bool = True) -> SelectResult:
-        return self.backend.select((_prefix_block() if prefixes else "") + query)
+        return self.backend.select((prefix_block() if prefixes else "") + query)
 
     def ask(self, query: str, *, prefixes: bool = True) -> bool:
-        return self.backend.ask((_prefix_block() if prefixes else "") + query)
+        return self.backend.ask((prefix_block() if prefixes else "") + query)
 
     def construct(self, query: str, *, prefixes: bool = True) -> rdflib.Graph:
-        return self.backend.construct((_prefix_block() if prefixes else "") + query)
+        return self.backend.construct((prefix_block() if prefixes else "") + query)
 
     def data_graph(self) -> rdflib.Graph:
         """The whole default graph (the knowledge, without version bookkeeping)."""
@@ -357,69 +309,7 @@ class KnowledgeGraph:
         return self.ask(f"ASK {{ GRAPH {n3(META)} {{ {n3(version_iri(new))} nfex:commitId {n3(Literal(commit_id))} }} }}")
 
     def _write_version(self, change: ChangeSet, head: int, new: int, author: str, message: str, commit_id: str) -> None:
-        """Write ``change`` as version ``new`` if ``head`` is still the head: one operation, one transaction.
-
-        A change the backend takes in one request (``max_inline_triples``; any size in the embedded store)
-        is written inline. SPARQL servers take an update of any size only in principle: Virtuoso 7 refuses an
-        INSERT DATA of ~5,000 triples (its parser runs out of memory) and a DELETE/INSERT template of ~1,000
-        (its SQL compiler stops at 10,000 lines), and it keeps the earlier operations of a request whose later
-        one fails. So a larger change is staged first, STAGE_CHUNK triples a request, in graphs of this commit
-        that no query of the knowledge reads, and one operation of fixed size moves it in. A writer killed
-        while staging leaves its staging graphs behind, unread.
-        """
-        limit = self.backend.max_inline_triples
-        staged = limit is not None and len(change.added) + len(change.removed) > limit
-        if staged:
-            for kind, triples in (("added", change.added), ("removed", change.removed)):
-                items = [triple_n3(t) for t in triples]
-                for i in range(0, len(items), STAGE_CHUNK):
-                    body = "\n".join(items[i : i + STAGE_CHUNK])
-                    self.backend.update(f"INSERT DATA {{ GRAPH {n3(staging_graph(commit_id, kind))} {{\n{body}\n}} }}")
-        self.backend.update(self._commit_update(change, head, new, author, message, commit_id, staged=staged))
-
-    def _commit_update(
-        self, change: ChangeSet, head: int, new: int, author: str, message: str, commit_id: str, *, staged: bool = False
-    ) -> str:
-        """The update writing version ``new``: one DELETE/INSERT … WHERE operation (one transaction on any
-        server) writes the change, its change-set graphs, the version node and the new head, guarded by the
-        head still being ``head``; further operations drop the claims on versions up to ``new`` (and the
-        staging graphs). ``staged``: the triples are read from the staging graphs rather than written out.
-        """
-        now = Literal(datetime.now(UTC).isoformat(timespec="milliseconds"), datatype=XSD.dateTime)
-        v = version_iri(new)
-        meta = [
-            (v, RDF.type, NFEX.GraphVersion),
-            (v, NFEX.versionNumber, Literal(new)),
-            (v, NFEX.author, Literal(author)),
-            (v, PROV.generatedAtTime, now),
-            (v, DCTERMS.description, Literal(message)),
-            (v, NFEX.addedCount, Literal(len(change.added))),
-            (v, NFEX.removedCount, Literal(len(change.removed))),
-            (v, NFEX.commitId, Literal(commit_id)),
-            (HEAD, NFEX.versionNumber, Literal(new)),
-        ]
-        guard = f"GRAPH {n3(META)} {{ {n3(HEAD)} nfex:versionNumber {head} }}"
-        meta_block = "\n".join(triple_n3(t) for t in meta)
-        tail = [settle_update(new)]  # claims for this and earlier versions are settled now
-        if staged:
-            staged_added, staged_removed = staging_graph(commit_id, "added"), staging_graph(commit_id, "removed")
-            removed, added = "?rs ?rp ?ro .", "?as ?ap ?ao ."
-            # each row binds an added triple, a removed one or neither (the last branch: the version is written
-            # however the change is made up); a template triple with an unbound variable is skipped (§3.1.3)
-            where = (f"{guard}\n{{ GRAPH {n3(staged_added)} {{ ?as ?ap ?ao }} }} UNION "
-                     f"{{ GRAPH {n3(staged_removed)} {{ ?rs ?rp ?ro }} }} UNION {{ BIND (1 AS ?one) }}")
-            tail = [f"DELETE WHERE {{ GRAPH {n3(g)} {{ ?s ?p ?o }} }}" for g in (staged_added, staged_removed)] + tail
-        else:
-            removed = "\n".join(triple_n3(t) for t in change.removed)
-            added = "\n".join(triple_n3(t) for t in change.added)
-            where = guard
-        change_sets = [f"GRAPH {n3(graph)} {{\n{body}\n}}" for graph, body in ((added_graph(new), added), (removed_graph(new), removed))
-                       if body.strip()]
-        return "\n".join([
-            f"{_prefix_block()}DELETE {{", self.backend.graph_block(removed), guard,
-            "} INSERT {", self.backend.graph_block(added), *change_sets, f"GRAPH {n3(META)} {{\n{meta_block}\n}}",
-            f"}} WHERE {{\n{where}\n}}",
-        ] + [f";\n{op}" for op in tail])
+        write_version(self.backend, change, head, new, author, message, commit_id)
 
     def add(self, graph: rdflib.Graph, *, author: str, message: str = "", expected_version: int | None = None) -> CommitResult:
         return self.commit(ChangeSet.adding(graph_triples(graph)), author=author, message=message, expected_version=expected_version)
@@ -438,25 +328,7 @@ class KnowledgeGraph:
 
     # ------------------------------------------------------------------ versions
     def versions(self, limit: int | None = None) -> list[Version]:
-        q = (
-            f"SELECT ?n ?author ?time ?msg ?a ?r WHERE {{ GRAPH {n3(META)} {{ ?v a nfex:GraphVersion ; "
-            "nfex:versionNumber ?n ; nfex:author ?author ; prov:generatedAtTime ?time ; "
-            "dcterms:description ?msg ; nfex:addedCount ?a ; nfex:removedCount ?r } } ORDER BY DESC(?n)"
-        )
-        if limit:
-            q += f" LIMIT {int(limit)}"
-        rows = self.select(q).rows
-        return [
-            Version(
-                number=int(py(r["n"])),
-                author=str(r["author"]),
-                time=t if isinstance(t := py(r["time"]), datetime) else None,
-                message=str(r["msg"]),
-                added=int(py(r["a"])),
-                removed=int(py(r["r"])),
-            )
-            for r in rows
-        ]
+        return read_versions(self.backend, limit)
 
     def version_info(self, number: int) -> Version:
         for v in self.versions():
@@ -467,11 +339,7 @@ class KnowledgeGraph:
     def changes(self, number: int) -> ChangeSet:
         """The change set that version ``number`` committed."""
         self.version_info(number)
-        added = self.backend.construct(f"CONSTRUCT {{ ?s ?p ?o }} WHERE {{ GRAPH {n3(added_graph(number))} {{ ?s ?p ?o }} }}")
-        removed = self.backend.construct(
-            f"CONSTRUCT {{ ?s ?p ?o }} WHERE {{ GRAPH {n3(removed_graph(number))} {{ ?s ?p ?o }} }}"
-        )
-        return ChangeSet(added=frozenset(added), removed=frozenset(removed))
+        return read_changes(self.backend, number)
 
     def diff(self, since: int, until: int | None = None) -> ChangeSet:
         """The net change from version ``since`` to version ``until`` (default: the head)."""
