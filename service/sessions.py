@@ -13,6 +13,7 @@ import threading
 import time
 import uuid
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -52,7 +53,7 @@ class Session:
     state_bytes: int = 0
     lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
-    def as_dict(self, ttl_s: float) -> dict[str, Any]:
+    def as_dict(self, ttl_s: float, now: float | None = None) -> dict[str, Any]:
         return {
             "id": self.id,
             "context": self.context,
@@ -60,12 +61,16 @@ class Session:
             "frames": self.frames,
             "has_previous": self.state is not None,
             "state_bytes": self.state_bytes,
-            "expires_in_s": round(max(0.0, self.last_used + ttl_s - time.monotonic()), 3),
+            "expires_in_s": round(max(0.0, self.last_used + ttl_s - (time.monotonic() if now is None else now)), 3),
         }
 
 
 class SessionStore:
-    def __init__(self, *, ttl_s: float, max_sessions: int, memory_bytes: int) -> None:
+    """The open sessions. ``clock`` (seconds, monotonic) is injectable, so expiry is tested without sleeping."""
+
+    def __init__(self, *, ttl_s: float, max_sessions: int, memory_bytes: int,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self.clock = clock
         self.ttl_s = ttl_s
         self.max_sessions = max_sessions
         self.memory_bytes = memory_bytes
@@ -81,7 +86,7 @@ class SessionStore:
 
     def sweep(self) -> int:
         """Drop expired sessions; returns how many."""
-        now = time.monotonic()
+        now = self.clock()
         with self._lock:
             dead = [k for k, s in self._sessions.items() if now - s.last_used > self.ttl_s]
             for k in dead:
@@ -97,13 +102,13 @@ class SessionStore:
                     f"(DELETE /v1/sessions/{{id}}) or wait for idle ones to expire after {self.ttl_s:g} s",
                     limit=self.max_sessions,
                 )
-            now = time.monotonic()
+            now = self.clock()
             s = Session(uuid.uuid4().hex, dict(context), client, now, now)
             self._sessions[s.id] = s
             return s
 
     def get(self, sid: str) -> Session:
-        now = time.monotonic()
+        now = self.clock()
         with self._lock:
             s = self._sessions.get(sid)
             if s is None or now - s.last_used > self.ttl_s:

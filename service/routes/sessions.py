@@ -17,12 +17,12 @@ router = APIRouter(prefix="/v1/sessions", tags=["sessions"])
 def create_session(body: SessionCreate, sessions: SessionsDep, advisor: AdvisorDep) -> dict[str, Any]:
     context = advisor.snapshot().vocab.check_context(body.context)
     s = sessions.create(context, body.client)
-    return s.as_dict(sessions.ttl_s)
+    return s.as_dict(sessions.ttl_s, sessions.clock())
 
 
 @router.get("/{session_id}", summary="A stream's state", response_model=Session, responses=PROBLEM_RESPONSES)
 def get_session(session_id: str, sessions: SessionsDep) -> dict[str, Any]:
-    return sessions.get(session_id).as_dict(sessions.ttl_s)
+    return sessions.get(session_id).as_dict(sessions.ttl_s, sessions.clock())
 
 
 @router.post(

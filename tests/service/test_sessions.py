@@ -1,7 +1,6 @@
 """Frame streams over HTTP, and the session store's bounds (TTL, count, memory) directly."""
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 
 import cv2
@@ -77,22 +76,36 @@ def state(nbytes: int) -> State:
     return State(np.zeros(nbytes // 2, np.uint8), {"ORB": FakeFeatures(np.zeros(nbytes // 2, np.uint8))})
 
 
+class Clock:
+    """A clock the test moves by hand (SessionStore's ``clock``)."""
+
+    def __init__(self) -> None:
+        self.now = 1000.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
 def test_store_expires_idle_sessions() -> None:
-    store = SessionStore(ttl_s=0.05, max_sessions=4, memory_bytes=10**6)
+    clock = Clock()
+    store = SessionStore(ttl_s=60, max_sessions=4, memory_bytes=10**6, clock=clock)
     s = store.create({})
-    time.sleep(0.1)
+    clock.now += 59
+    assert store.get(s.id) is s and s.as_dict(store.ttl_s, clock())["expires_in_s"] == 60  # use renews it
+    clock.now += 60.5
     with pytest.raises(NotFound):
         store.get(s.id)
     assert len(store) == 0
 
 
 def test_store_bounds_the_count_and_sweeps_expired_ones_first() -> None:
-    store = SessionStore(ttl_s=0.2, max_sessions=2, memory_bytes=10**6)
+    clock = Clock()
+    store = SessionStore(ttl_s=60, max_sessions=2, memory_bytes=10**6, clock=clock)
     store.create({})
     store.create({})
     with pytest.raises(TooManySessions):
         store.create({})
-    time.sleep(0.25)
+    clock.now += 61
     store.create({})  # the expired two made room
     assert len(store) == 1
 
