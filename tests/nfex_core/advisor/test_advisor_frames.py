@@ -6,6 +6,7 @@ from pathlib import Path
 import cv2
 
 from nfex_core.advisor.advisor import Advisor
+from nfex_core.datasets.synthetic import make_sequence
 from nfex_core.kg import KnowledgeGraph
 
 KITTI = "kitti/sequences/00/image_0"
@@ -42,6 +43,21 @@ def test_select_on_a_kitti_frame_and_a_stream_of_two(kg: KnowledgeGraph, data_di
         assert c.metrics["repeatability"] > 0.2 and c.metrics["stability"] > 0.1 and c.metrics["motion"] < 0.5
     motion = next(e for e in second.context if e.dimension == "motion")
     assert "flow" in (motion.evidence or "")
+
+
+def test_the_frame_path_on_synthetic_frames(kg: KnowledgeGraph) -> None:
+    """The frame path without the data folder: a two-frame stream of the generator's textured planes."""
+    seq = make_sequence(2, 640, 480)
+    advisor = Advisor(kg, neural="symbolic")
+    vocab = kg.vocabulary()
+    first = advisor.select({"agent": "drone"}, frame=seq[0].image)
+    assert first.mode == "metrics" and first.candidates
+    assert all(c.score is not None and c.keypoints for c in first.candidates)
+    assert first.extractor == max(first.candidates, key=lambda c: c.score or 0.0).extractor
+    second = advisor.select({"agent": "drone"}, frame=seq[1].image, previous=first.state)
+    for c in second.candidates:
+        assert set(c.metrics) == set(vocab.metrics) and all(0.0 <= v <= 1.0 for v in c.metrics.values())
+        assert c.metrics["repeatability"] > 0.2  # a small camera step: most features are found again
 
 
 def test_frame_statistics_are_computed_once_per_request(kg: KnowledgeGraph, data_dir: Path, monkeypatch) -> None:  # type: ignore[no-untyped-def]

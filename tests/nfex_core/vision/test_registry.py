@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import rdflib
 
+from nfex_core.datasets.synthetic import make_sequence
 from nfex_core.errors import ParameterError, UnknownName
 from nfex_core.kg import KnowledgeGraph
 from nfex_core.kg.vocab import Vocabulary
@@ -75,6 +76,17 @@ def test_contract_on_a_real_frame(name: str, registry: ExtractorRegistry, euroc_
     check_contract(feats, image, spec.descriptor_kind)
     assert feats.descriptors.shape[1] == registry.descriptor_size(name)
     assert feats.norm_name == spec.norm_for(registry.resolve(name))
+
+
+@pytest.mark.parametrize("name", EXTRACTORS)
+def test_contract_on_a_synthetic_frame(name: str, registry: ExtractorRegistry, runnable: set[str]) -> None:
+    """The same contract on the generator's textured planes: it never depends on the data folder."""
+    _need(name, runnable)
+    image = make_sequence(1, 640, 480)[0].image
+    feats = registry.extract(name, image)
+    assert len(feats) > 50, f"{name} found only {len(feats)} features on a synthetic textured frame"
+    check_contract(feats, image, registry.spec(name).descriptor_kind)
+    assert feats.descriptors.shape[1] == registry.descriptor_size(name)
 
 
 @pytest.mark.parametrize("name", EXTRACTORS)
