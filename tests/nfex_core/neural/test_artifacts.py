@@ -73,3 +73,11 @@ def test_a_network_that_only_ties_its_trivial_baseline_is_gated(trained, metrics
     _, model = trained
     model = NeuralModel(**{**model.__dict__, "manifest": {**model.manifest, "metrics": metrics}})
     assert set(model.validation_gates()) == gated
+
+
+def test_the_shipped_model_was_trained_by_committed_code() -> None:
+    """models/default names the commit that trained it, from a clean tree: a `dirty: true` model is never
+    shipped (retrain with `nfex train … --out models/default` on a clean checkout; training is deterministic)."""
+    manifest = json.loads((Path(__file__).resolve().parents[3] / "models" / "default" / "manifest.json").read_text())
+    assert manifest["code"]["dirty"] is False, manifest["code"]
+    assert len(manifest["code"]["git_commit"] or "") == 40
