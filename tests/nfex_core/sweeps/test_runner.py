@@ -63,3 +63,22 @@ def test_ray_executor_on_a_local_two_cpu_instance(kg: KnowledgeGraph, data_dir: 
     counts = sweep(_spec(data_dir, corruptions=("none",)), kg, tmp_path / "t.csv", run=RunInfo(command="test"),
                    executor="ray", workers=2, progress=False)
     assert counts["ran"] == 2 and _measurements(kg) == seeded + 2
+
+
+@pytest.mark.slow
+def test_a_schedule_sweep_keeps_each_pairs_outcome_and_the_transition(kg: KnowledgeGraph, data_dir: Path, tmp_path: Path) -> None:
+    """A window across a change of condition: its row names the schedule and the transition, the pairs
+    table has one row per frame pair (the straddling one marked), the Measurement carries both."""
+    csv = tmp_path / "t.csv"
+    spec = _spec(data_dir, corruptions=(), schedules=("none:0-1,dark:2-199",), sample=1)  # KITTI 00 here: 200 frames
+    counts = sweep(spec, kg, csv, run=RunInfo(command="test"), workers=1, progress=False)
+    assert counts["ran"] == 1
+    (row,) = table.read(csv)
+    assert (row["corruption"], row["schedule"], row["transition"]) == ("schedule", "none:0-1,dark:2-199", "none→dark")
+    assert 0.0 <= float(row["bad_pair_fraction"]) <= 1.0
+    pairs = table.read_pairs(table.pairs_path(csv))
+    assert [p["frame"] for p in pairs] == ["1", "2", "3"]
+    assert [p["transition"] for p in pairs] == ["", "none→dark", ""]
+    for p in pairs:  # an estimate has its error against the ground truth; a lost pair says why
+        assert p["rotation_error_deg"] != "" or (p["lost"] == "1" and p["reason"])
+    assert kg.ask('ASK { ?m a nfex:Measurement ; nfex:transition "none→dark" ; nfex:badPairFraction ?b }')
