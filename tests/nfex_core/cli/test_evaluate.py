@@ -49,3 +49,10 @@ def test_nfex_evaluate_xfeat_default_runs_and_without_weights_exits_2(cli_env: d
     missing = run_cli(args, {**cli_env, "NFEX_XFEAT_WEIGHTS": str(tmp_path / "gone.pt")})
     assert missing.returncode == 2, missing.stderr
     assert "gone.pt" in missing.stderr and "Traceback" not in missing.stderr and len(missing.stderr.strip().splitlines()) == 1
+
+
+def test_nfex_evaluate_a_schedule_with_a_gap_exits_2_naming_it(cli_env: dict[str, str], data_dir: Path) -> None:
+    r = run_cli(["evaluate", str(data_dir / "kitti"), "--sequence", "01", "--runs", "1", "-m", "orb-default",
+                 "--schedule", "none:0-12,dark:15-50"], cli_env)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert "13-14" in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
