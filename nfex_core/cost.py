@@ -185,6 +185,8 @@ class BudgetTerms:
     labels: Mapping[str, str] = field(default_factory=dict)
     relative_rules: frozenset[str] = frozenset()  # rules with nfex:relativeToBest true
     max_relative_ate: float | None = None  # nfex:maxRelativeAte
+    verification_cap: float = 1.0  # nfex:verificationCap: a verified frame may spend this many budgets
+    window: int = 1  # nfex:budgetWindow: frames over which the budget is a mean
 
     @classmethod
     def load(cls, kg: KnowledgeGraph) -> BudgetTerms:
@@ -201,8 +203,13 @@ class BudgetTerms:
             for r in kg.select("SELECT ?r ?label WHERE { ?r a nfex:BudgetRule ; rdfs:label ?label }").rows
         }
         relative = frozenset(str(r["r"]) for r in kg.select("SELECT ?r WHERE { ?r nfex:relativeToBest true }").rows)
-        factor = kg.select("SELECT ?v WHERE { nfex:maxRelativeAte nfex:value ?v }").rows
-        return cls(agents, compute, labels, relative, float(py(factor[0]["v"])) if factor else None)
+        def value(name: str) -> float | None:
+            rows = kg.select(f"SELECT ?v WHERE {{ nfex:{name} nfex:value ?v }}").rows
+            return float(py(rows[0]["v"])) if rows else None
+
+        cap, window = value("verificationCap"), value("budgetWindow")
+        return cls(agents, compute, labels, relative, value("maxRelativeAte"),
+                   max(1.0, cap) if cap is not None else 1.0, max(1, int(window)) if window is not None else 1)
 
 
 def _role(spec: ExtractorSpec, role: str) -> str | None:

@@ -51,6 +51,8 @@ class Session:
     frames: int = 0
     state: Any = None
     state_bytes: int = 0
+    pending: Any = None  # the last frame's (proposals, verification policy) until its pair is judged
+    prior: Any = None  # verification.Prior: the last accepted step that translated
     lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     def as_dict(self, ttl_s: float, now: float | None = None) -> dict[str, Any]:

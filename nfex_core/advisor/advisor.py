@@ -8,6 +8,8 @@
                     ─► scoring     F_metrics + H·A on the frame, SelectorNet masked to C(E), or the
                                    prior without a frame                                    (scoring.py)
                     ─► choice      α* and the candidates best first                          (choice.py)
+                    ─► verification the proposals to try on the frame pair and the policy that judges
+                                   their estimates, compiled per context            (nfex_core/verification.py)
                     ─► Selection   {α*, Θ′, scores, pruned + reasons, context, versions, timings} (selection.py)
 
 It holds a snapshot — graph version, vocabulary, compiled rule table, extractor registry — and rebuilds
@@ -19,7 +21,7 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -176,7 +178,24 @@ class Advisor:
             laps("neural")
         params, scored = self._score(snap, decision, cond, budget, nn, previous)
         laps("selection")
-        return self._answer(snap, decision, cond, budget, nn, params, scored, laps.timings)
+        escalations = self._escalations(snap, decision, cond, budget, nn)
+        return self._answer(snap, decision, cond, budget, nn, params, scored, laps.timings, escalations)
+
+    def _escalations(self, snap: Snapshot, decision: Decision, cond: Conditions, budget: Budget | None,
+                     nn: NeuralStep) -> tuple[CandidateScore, ...]:
+        """Under a budget, with verification in force: the candidates that fit the per-frame cap
+        (``nfex:verificationCap`` budgets), best first, Θ′ fitted to the cap — what a pair may escalate to where
+        the affordable candidates fail (verification.BudgetWindow keeps the mean within the budget)."""
+        cap = snap.table.budget_terms.verification_cap
+        if budget is None or not decision.verification.active or cap <= 1.0:
+            return ()
+        wide = replace(budget, ms=budget.ms * cap, source=f"{budget.source} × verification cap {cap:g}")
+        key = ("escalations", id(decision), tuple(wide.as_dict().values()), nn.info.get("used"))
+        cached = snap.priors.get(key)
+        if cached is None:
+            params = parameters(snap.vocab, snap.table, decision, cond.values, wide, nn, None)
+            cached = snap.priors[key] = (ranked(decision, prior_scores(decision, params)), params)
+        return tuple(cached[0])
 
     def _score(
         self, snap: Snapshot, decision: Decision, cond: Conditions, budget: Budget | None, nn: NeuralStep,
@@ -198,7 +217,7 @@ class Advisor:
 
     def _answer(
         self, snap: Snapshot, decision: Decision, cond: Conditions, budget: Budget | None, nn: NeuralStep,
-        params: Parameters, scored: Scored, timings: dict[str, float],
+        params: Parameters, scored: Scored, timings: dict[str, float], escalations: tuple[CandidateScore, ...] = (),
     ) -> Selection:
         """α*, the candidates best first and everything that was pruned on the way, as a Selection."""
         pruned: dict[str, tuple[Citation, ...]] = {**decision.pruned, **params.shaped_out}
@@ -227,6 +246,8 @@ class Advisor:
             state=scored.state,
             budget=budget.as_dict() if budget is not None else None,
             warnings=tuple(outcome.warnings) if outcome is not None else (),
+            verification=decision.verification,
+            escalations=escalations,
         )
 
 

@@ -12,7 +12,7 @@ from ..context import ContextEntry
 from ..cost import Estimate
 from ..evidence import ROBUST
 from ..kg.vocab import Value
-from ..rules.types import Adjustment, Citation, Evidence, Factor, MeasuredConfiguration
+from ..rules.types import NO_POLICY, Adjustment, Citation, Evidence, Factor, MeasuredConfiguration, Policy
 
 __all__ = ["CandidateEvidence", "CandidateScore", "ContextEntry", "PrunedCandidate", "Selection"]
 
@@ -119,6 +119,18 @@ class Selection:
     state: Any = field(default=None, compare=False, repr=False)  # for the next frame of a stream
     budget: dict[str, Any] | None = None  # the per-frame budget in force (ms, source, compute, frame size)
     warnings: tuple[str, ...] = ()
+    verification: Policy = NO_POLICY  # how the client (or the VO) judges each proposal's pair estimate
+    escalations: tuple[CandidateScore, ...] = ()  # under a budget: candidates within the per-frame cap, best first
+
+    @property
+    def proposals(self) -> tuple[CandidateScore, ...]:
+        """The candidates to try on the frame pair, in order: the best of each extractor (escalation goes to a
+        *different* extractor, whose errors are less correlated), then under a budget the extractors that fit only
+        the per-frame cap; at most the policy's 1 + N; α* alone without verification."""
+        out: dict[str, CandidateScore] = {}
+        for c in (*self.candidates, *self.escalations):
+            out.setdefault(c.extractor, c)
+        return tuple(out.values())[: self.verification.max_tries]
 
     @property
     def constructor(self) -> str:
@@ -141,6 +153,12 @@ class Selection:
                 m: {"value": f.value, "because": [c.as_dict() for c in f.citations]} for m, f in self.weights.items()
             },
             "budget": self.budget,
+            "verification": {
+                "max_tries": self.verification.max_tries,
+                "accept": [{"tests": [t.text() for t in r.tests], "because": r.citation.as_dict()} for r in self.verification.accept],
+                "escalation": self.verification.escalation_citation.as_dict() if self.verification.escalation_citation else None,
+                "proposals": [{"extractor": c.extractor, "params": c.params} for c in self.proposals],
+            },
             "warnings": list(self.warnings),
             "versions": self.versions,
             "timings_ms": {k: round(v, 3) for k, v in self.timings_ms.items()},

@@ -9,6 +9,7 @@ import typer
 from ..errors import NotFound
 from .common import author as author_of
 from .common import echo_json, err, open_kg, settings, table
+from .common import table as table_of
 
 app = typer.Typer(help="DSL programs: check and apply rule files, show what the graph holds.", no_args_is_help=True)
 
@@ -103,3 +104,32 @@ def remove(
         raise NotFound(f"no program named {name!r}; the graph holds: {', '.join(p.name for p in programs.programs(kg)) or '(none)'}")
     result = programs.remove(kg, name, author=author_of(author), message=message)
     typer.echo(f"version {result.version}: removed program {name} (−{result.removed} triples)")
+
+
+@app.command("learn-verification")
+def learn_verification(
+    table: Annotated[list[Path], typer.Option("--table", help="A sweep's training table; its pair table (…-pairs.csv.gz) is read beside it. Repeatable.", exists=True, dir_okay=False)],
+    out: Annotated[Path, typer.Option("--out", "-o", help="The program file to write.")] = Path("rules/programs/verification.nfex"),
+    min_pairs: Annotated[int, typer.Option("--min-pairs", help="Pairs an agent needs for thresholds of its own.")] = 500,
+    escalations: Annotated[int, typer.Option("--escalations", help="The prior N of `escalate at most N`.")] = 2,
+) -> None:
+    """Fit the verification program (accept pair if …, escalate at most N) to the sweeps' pair outcomes
+    (nfex_core/sweeps/verification.py), check it against the graph and write it to OUT."""
+    from ..errors import BadInput
+    from ..rules.dsl.check import check as check_program
+    from ..rules.dsl.parser import parse
+    from ..sweeps.table import pairs_path
+    from ..sweeps.verification import learn
+
+    pair_tables = [pairs_path(t) for t in table]
+    missing = [str(p) for p in pair_tables if not p.exists()]
+    if missing:
+        raise BadInput(f"no pair table beside the training table: {', '.join(missing)} (run `nfex sweep` with this --csv)")
+    text, report = learn(pair_tables, table, min_pairs=min_pairs, escalations=escalations)
+    check_program(parse(text, source=str(out)), open_kg().vocabulary())
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(text)
+    typer.echo(table_of(["agent", "accept pair if", "J", "TPR", "FPR", "pairs", "good"],
+                        [[str(r["agent"]), str(r["tests"]), str(r["j"]), str(r["tpr"]), str(r["fpr"]), str(r["pairs"]), str(r["good"])]
+                         for r in report]))
+    typer.echo(f"wrote {out} ({len(report)} accept statements); apply it with `nfex program apply {out}`")

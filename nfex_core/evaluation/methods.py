@@ -11,7 +11,8 @@ baseline at once:
   in scope with at least ``nfex:minMeasurements`` windows and no failed one — what a careful engineer
   would put in a config file without seeing the test sequence.
 
-``nfex``: the advisor per frame with its stream state. Every method reads the graph through the
+``nfex``: the advisor per frame with its stream state; where the graph's verification program is in force for the
+context, the VO tries the selection's proposals in order and the policy judges each pair (``verification``). Every method reads the graph through the
 evaluation's evidence scope, which holds the evaluated sequence out (``kg.scope``).
 """
 from __future__ import annotations
@@ -25,7 +26,8 @@ from ..errors import BadInput
 from ..evidence import robust
 from ..kg.vocab import Value, Vocabulary
 from ..rules.engine import RuleTable
-from ..vo import Choice, Chooser, FrameRecord, fixed
+from ..verification import NEXT, BudgetWindow, PairEvidence, Prior, Verdict, judge
+from ..vo import Choice, Chooser, FrameRecord, Proposals, fixed
 
 if TYPE_CHECKING:
     from ..advisor import Advisor
@@ -111,8 +113,9 @@ class AdvisorChooser:
     budget_ms: float | None = None
     selections: list[dict[str, Any]] = field(default_factory=list)
     _state: Any = None
+    _window: BudgetWindow | None = None
 
-    def __call__(self, frame: Frame, history: list[FrameRecord]) -> Choice:
+    def __call__(self, frame: Frame, history: list[FrameRecord]) -> Choice | Proposals:
         sel = self.advisor.select({**self.context, **frame.context}, frame.image, self._state, budget_ms=self.budget_ms)
         self._state = sel.state
         self.selections.append({
@@ -123,7 +126,26 @@ class AdvisorChooser:
                             "ate_m": c.evidence.measured.ate if c.evidence.measured else None}
                            for c in sel.candidates],
         })
-        return Choice(sel.extractor, dict(sel.params))
+        if not sel.verification.active:
+            return Choice(sel.extractor, dict(sel.params))
+        policy, proposals = sel.verification, sel.proposals
+        if self.budget_ms is None:
+            return Proposals(tuple(Choice(c.extractor, dict(c.params)) for c in proposals),
+                             lambda tried, prior, remaining: judge(policy, tried, prior, remaining))
+        if self._window is None:
+            terms = self.advisor.snapshot().table.budget_terms
+            self._window = BudgetWindow(self.budget_ms, terms.window, terms.verification_cap)
+        elif history:
+            self._window.close(history[-1].extraction_ms)
+        window = self._window
+
+        def within_budget(tried: list[PairEvidence], prior: Prior | None, remaining: int) -> Verdict:
+            v = judge(policy, tried, prior, remaining)
+            if v.action == NEXT and not window.allows(sum(e.extraction_ms for e in tried), proposals[len(tried)].evidence.expected_ms):
+                v = judge(policy, tried, prior, 0)  # the next candidate does not fit: decide on what was tried
+            return v
+
+        return Proposals(tuple(Choice(c.extractor, dict(c.params)) for c in proposals), within_budget)
 
 
 def chooser_for(

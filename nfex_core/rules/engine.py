@@ -39,7 +39,18 @@ from ..motion import StepChecks, load_step_checks
 from . import pruning
 from .shapes import load_context_shapes
 from .statements import CompiledStatement, load_statements
-from .types import Citation, ContextKey, Decision, Evidence, Factor, MeasuredConfiguration
+from .types import (
+    DEFAULT_ESCALATIONS,
+    AcceptRule,
+    Citation,
+    ContextKey,
+    Decision,
+    Evidence,
+    Factor,
+    MeasuredConfiguration,
+    PairTest,
+    Policy,
+)
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
@@ -209,6 +220,8 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
         factors: dict[str, dict[str, Factor]] = {}
         weights: dict[str, Factor] = {m: Factor(1.0) for m in vocab.metrics}
         bonuses: dict[str, Factor] = {}
+        accept: list[AcceptRule] = []
+        escalation: tuple[int, Citation] | None = None
         for s in statements:
             if not s.applies(context):
                 continue
@@ -224,6 +237,10 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
             elif s.kind == "prefer" and s.extractor and s.value is not None:
                 old = bonuses.get(s.extractor, Factor(0.0))
                 bonuses[s.extractor] = Factor(old.value + float(s.value), old.citations + (cite,))
+            elif s.kind == "accept" and s.tests:
+                accept.append(AcceptRule(tuple(PairTest(*t) for t in s.tests), s.atoms, cite))
+            elif s.kind == "escalate" and s.value is not None and (escalation is None or int(s.value) < escalation[0]):
+                escalation = (int(s.value), cite)  # the strictest in force
         in_force = tuple(sh for sh in shapes if sh.applies(context))
         for sh in in_force:  # a prohibition prunes here; bounds are checked per candidate Θ′
             if sh.bound is None:
@@ -238,6 +255,7 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
             weights=weights,
             bonuses=bonuses,
             shapes=in_force,
+            verification=Policy(tuple(accept), *(escalation or (DEFAULT_ESCALATIONS, None))),
         )
     settings = measured_settings(kg)
     cost = fit_cost_model(kg, vocab.extractors, settings, evidence)

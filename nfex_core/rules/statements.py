@@ -26,6 +26,8 @@ KINDS = {
     "WeightStatement": "weight",
     "PreferStatement": "prefer",
     "RequireStatement": "require",
+    "AcceptStatement": "accept",
+    "EscalateStatement": "escalate",
 }
 
 
@@ -35,7 +37,7 @@ class CompiledStatement:
     ``dsl.parser.Statement``)."""
 
     iri: URIRef
-    kind: str  # prune | adjust | weight | prefer | require
+    kind: str  # prune | adjust | weight | prefer | require | accept | escalate
     label: str
     reason: str
     program: str
@@ -48,6 +50,7 @@ class CompiledStatement:
     value: float | int | bool | None = None  # factor, weight, bonus, bound
     comparator: str | None = None  # require
     shape: URIRef | None = None  # require: the SHACL shape compiled from it
+    tests: tuple[tuple[str, str, float], ...] = ()  # accept: (signal, comparator, bound), in order
 
     def applies(self, context: Mapping[str, str | None]) -> bool:
         return all(a.holds(context) for a in self.atoms)
@@ -59,13 +62,14 @@ def load_statements(kg: KnowledgeGraph, vocab: Vocabulary) -> list[CompiledState
     rows = kg.select(
         """SELECT ?s ?type ?label ?reason ?program ?order ?file ?line ?x ?p ?m ?factor ?weight ?bonus ?bound ?cmp ?shape WHERE {
             ?s a ?type ; nfex:inProgram ?prog .
-            FILTER (?type IN (nfex:PruneStatement, nfex:AdjustStatement, nfex:WeightStatement, nfex:PreferStatement, nfex:RequireStatement))
+            FILTER (?type IN (nfex:PruneStatement, nfex:AdjustStatement, nfex:WeightStatement, nfex:PreferStatement, nfex:RequireStatement,
+                              nfex:AcceptStatement, nfex:EscalateStatement))
             FILTER NOT EXISTS { ?s nfex:enabled false }
             ?prog rdfs:label ?program .
             OPTIONAL { ?s rdfs:label ?label } OPTIONAL { ?s nfex:reason ?reason } OPTIONAL { ?s nfex:order ?order }
             OPTIONAL { ?prog nfex:sourceFile ?file } OPTIONAL { ?s nfex:line ?line }
             OPTIONAL { ?s nfex:prunes|nfex:prefers ?x } OPTIONAL { ?s nfex:parameter ?p } OPTIONAL { ?s nfex:metric ?m }
-            OPTIONAL { ?s nfex:factor ?factor } OPTIONAL { ?s nfex:weight ?weight } OPTIONAL { ?s nfex:bonus ?bonus }
+            OPTIONAL { ?s nfex:factor|nfex:maxEscalations ?factor } OPTIONAL { ?s nfex:weight ?weight } OPTIONAL { ?s nfex:bonus ?bonus }
             OPTIONAL { ?s nfex:bound ?bound } OPTIONAL { ?s nfex:comparator ?cmp } OPTIONAL { ?s nfex:shape ?shape }
         }"""
     ).rows
@@ -78,6 +82,16 @@ def load_statements(kg: KnowledgeGraph, vocab: Vocabulary) -> list[CompiledState
     ).rows:
         entry = atoms.setdefault(r["s"], {}).setdefault(r["a"], (str(r["dim"]), set(), bool(py(r.get("neg", Literal(False))))))
         entry[1].add(str(r["v"]))
+
+    tests: dict[Node, list[tuple[int, str, str, float]]] = {}
+    for r in kg.select(
+        """SELECT ?s ?order ?signal ?cmp ?bound WHERE {
+            ?s nfex:hasTest ?t . ?t nfex:signal ?signal ; nfex:testComparator ?cmp ; nfex:threshold ?bound .
+            OPTIONAL { ?t nfex:order ?order }
+        }"""
+    ).rows:
+        order = int(py(r["order"])) if "order" in r else 0
+        tests.setdefault(r["s"], []).append((order, str(r["signal"]), str(r["cmp"]), float(py(r["bound"]))))
 
     out: list[CompiledStatement] = []
     for r in rows:
@@ -111,6 +125,7 @@ def load_statements(kg: KnowledgeGraph, vocab: Vocabulary) -> list[CompiledState
                 value=value,
                 comparator=str(r["cmp"]) if "cmp" in r else None,
                 shape=r.get("shape"),  # type: ignore[arg-type]
+                tests=tuple((sig, cmp, b) for _, sig, cmp, b in sorted(tests.get(r["s"], []))),
             )
         )
     out.sort(key=lambda s: (s.program, s.order, str(s.iri)))

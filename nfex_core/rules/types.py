@@ -12,11 +12,15 @@ advisor, the budget, the context shapes, the neural step and the fitness functio
 - ``Bound`` / ``CompiledShape``: a context shape compiled to "gate ⇒ θ_k ⋈ b" or a prohibition;
 - ``Evidence`` / ``MeasuredConfiguration``: what the graph measured for an extractor, or one of its
   configurations, under a context's known conditions;
+- ``PairTest`` / ``AcceptRule`` / ``Policy``: the verification of frame pairs in force in a context,
+  compiled from ``accept pair if …`` and ``escalate at most N`` statements (verification.py judges);
 - ``Decision``: everything the table holds for one context.
 """
 from __future__ import annotations
 
-from collections.abc import Mapping
+import math
+import operator
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -27,6 +31,69 @@ from ..evidence.aggregate import ROBUST
 from ..kg.vocab import ExtractorSpec, ParameterSpec, Value
 
 ContextKey = tuple[str | None, ...]
+
+# what an ``accept pair if …`` statement may test (verification.py computes them)
+PAIR_SIGNALS: dict[str, str] = {
+    "inliers": "RANSAC inliers of the essential matrix",
+    "matches": "ratio-test matches",
+    "keypoints": "keypoints in the newer frame",
+    "parallax": "median inlier parallax, px",
+    "extraction_ms": "extraction time of this try, ms",
+    "rotation": "rotation angle of the estimate, degrees",
+    "rotation_change": "angle between the estimate's rotation and the motion prior's, degrees",
+    "heading_change": "angle between the estimate's direction of motion and the motion prior's, degrees",
+    "agreement": "least disagreement (rotation + direction, degrees) with another candidate's estimate of the pair",
+}
+MAX_ESCALATIONS = 5
+PAIR_COMPARATORS: dict[str, Callable[[float, float], bool]] = {
+    "<=": operator.le, "<": operator.lt, ">=": operator.ge, ">": operator.gt,
+}
+DEFAULT_ESCALATIONS = 1
+
+
+@dataclass(frozen=True)
+class PairTest:
+    signal: str
+    comparator: str
+    bound: float
+
+    def holds(self, signals: Mapping[str, float | None]) -> bool:
+        v = signals.get(self.signal)
+        return v is not None and math.isfinite(v) and PAIR_COMPARATORS[self.comparator](v, self.bound)
+
+    def text(self) -> str:
+        return f"{self.signal} {self.comparator} {self.bound:g}"
+
+
+@dataclass(frozen=True)
+class AcceptRule:
+    tests: tuple[PairTest, ...]
+    atoms: tuple[ConditionAtom, ...]
+    citation: Citation
+
+
+@dataclass(frozen=True)
+class Policy:
+    """The verification in force in one context."""
+
+    accept: tuple[AcceptRule, ...] = ()
+    escalations: int = DEFAULT_ESCALATIONS
+    escalation_citation: Citation | None = None
+
+    @property
+    def active(self) -> bool:
+        return bool(self.accept)
+
+    @property
+    def max_tries(self) -> int:
+        return 1 + self.escalations if self.active else 1
+
+    def citations(self) -> tuple[Citation, ...]:
+        out = tuple(r.citation for r in self.accept)
+        return out + ((self.escalation_citation,) if self.escalation_citation else ())
+
+
+NO_POLICY = Policy()
 
 
 @dataclass(frozen=True)
@@ -184,3 +251,4 @@ class Decision:
     bonuses: Mapping[str, Factor]  # extractor → preference bonus
     evidence: Mapping[str, Evidence] = field(default_factory=dict)
     shapes: tuple[CompiledShape, ...] = ()  # context shapes whose gate holds here (rules/shape_check.py)
+    verification: Policy = NO_POLICY  # how a frame pair's estimate is judged here (verification.py)

@@ -20,7 +20,7 @@ import numpy as np
 
 from ..datasets.base import Frame, Sequence
 from ..kg.vocab import ExtractorSpec
-from ..motion import NO_CHECKS, StepChecks, motion_direction, rotation_deg
+from ..motion import NO_CHECKS, StepChecks, motion_direction, relative_truth, rotation_deg
 
 METRIC_EVERY = 3  # window means of m1–m7 from frames 0, 3, 6, … of the window
 DIMENSIONS = ("agent", "motion", "scene", "light", "reflectance", "texture")
@@ -202,6 +202,7 @@ def pair_rows(cell: Cell, seq: Sequence, res: Any, segments: list[str]) -> list[
     """One row per frame pair of the window: what the configuration's estimate showed, and its error."""
     out = []
     for j, f in enumerate(res.frames[1:], start=1):
+        truth = _truth(seq, res.frames[j - 1].index, f.index)
         est = f.estimate
         rvec = _rotvec(est[0]) if est is not None else (None, None, None)
         direction = motion_direction(*est) if est is not None else (None, None, None)
@@ -216,8 +217,20 @@ def pair_rows(cell: Cell, seq: Sequence, res: Any, segments: list[str]) -> list[
             "rotation_error_deg": f.errors[0] if f.errors else None, "direction_error_deg": f.errors[1] if f.errors else None,
             "parallax_px": f.parallax_px, "extraction_ms": f.extraction_ms,
             "rx": rvec[0], "ry": rvec[1], "rz": rvec[2], "dx": direction[0], "dy": direction[1], "dz": direction[2],
+            "true_rx": truth[0], "true_ry": truth[1], "true_rz": truth[2],
+            "true_dx": truth[3], "true_dy": truth[4], "true_dz": truth[5],
         })
     return out
+
+
+def _truth(seq: Sequence, a: int, b: int) -> tuple[float | None, ...]:
+    """The true relative motion of frames a → b as a rotation vector and a unit direction of motion (Nones
+    without poses): what a verifier's choices are scored against (sweeps/verification.py)."""
+    pa, pb = seq[a].pose, seq[b].pose
+    if pa is None or pb is None:
+        return (None,) * 6
+    R, t = relative_truth(pa, pb)
+    return (*_rotvec(R), *(float(v) for v in motion_direction(R, t)))
 
 
 def _rotvec(R: np.ndarray) -> tuple[float, float, float]:

@@ -85,6 +85,7 @@ PAIR_COLUMNS = [
     "cell", "dataset", "sequence", "corruption", "severity", "seed", "window_start", "frame", "before", "after",
     "transition", "extractor", "params", "keypoints", "matches", "inliers", "lost", "rejected", "reason", "rotation_deg",
     "rotation_error_deg", "direction_error_deg", "parallax_px", "extraction_ms", "rx", "ry", "rz", "dx", "dy", "dz",
+    "true_rx", "true_ry", "true_rz", "true_dx", "true_dy", "true_dz",
 ]
 
 

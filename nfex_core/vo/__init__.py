@@ -3,9 +3,9 @@ from __future__ import annotations
 
 from ..motion import NO_CHECKS, StepChecks, pair_errors, relative_truth
 from .geometry import MatchResult, RelativePose, match, relative_pose
-from .pipeline import Choice, Chooser, FrameRecord, VOParams, VOResult, fixed, run_vo
+from .pipeline import Choice, Chooser, FrameRecord, Proposals, VOParams, VOResult, fixed, run_vo
 
 __all__ = [
-    "NO_CHECKS", "Choice", "Chooser", "FrameRecord", "MatchResult", "RelativePose", "StepChecks", "VOParams", "VOResult",
+    "NO_CHECKS", "Choice", "Chooser", "FrameRecord", "MatchResult", "Proposals", "RelativePose", "StepChecks", "VOParams", "VOResult",
     "fixed", "match", "pair_errors", "relative_pose", "relative_truth", "run_vo",
 ]

@@ -35,6 +35,7 @@ FrameRecord, with its rotation and direction errors against the ground truth whe
 """
 from __future__ import annotations
 
+import json
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -42,7 +43,8 @@ from typing import Any
 import numpy as np
 
 from ..datasets.base import Frame, Sequence
-from ..motion import NO_CHECKS, StepChecks, pair_errors, relative_truth
+from ..motion import NO_CHECKS, StepChecks, motion_direction, pair_errors, relative_truth
+from ..verification import ACCEPT, NEXT, PairEvidence, Prior, Verdict
 from ..vision.features import Features
 from ..vision.registry import ExtractorRegistry
 from .geometry import match, relative_pose, triangulate, undistort
@@ -52,6 +54,10 @@ from .geometry import match, relative_pose, triangulate, undistort
 class Choice:
     extractor: str
     params: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def key(self) -> str:
+        return self.extractor + json.dumps(self.params, sort_keys=True, default=str)
 
 
 @dataclass(frozen=True)
@@ -87,6 +93,8 @@ class FrameRecord:
     estimate: tuple[np.ndarray, np.ndarray] | None = field(default=None, compare=False, repr=False)  # (R, unit t)
     errors: tuple[float, float] | None = None  # (rotation, direction) error of the estimate vs ground truth, degrees
     parallax_px: float = 0.0
+    tries: int = 1  # candidates tried on this pair (verification; extraction and matching ms count them all)
+    verdict: dict[str, Any] | None = field(default=None, compare=False)  # verification.Verdict.as_dict()
 
     @property
     def rejected(self) -> bool:
@@ -125,7 +133,16 @@ class VOResult:
         return {k: float(np.mean([f.metrics[k] for f in self.frames if k in f.metrics])) for k in keys}
 
 
-Chooser = Callable[[Frame, list[FrameRecord]], "Choice | tuple[str, Mapping[str, Any]]"]
+@dataclass(frozen=True)
+class Proposals:
+    """A chooser's answer when the pair is verified: the candidates in the order to try them, and the judge
+    (``verification.judge`` bound to the context's policy) that decides after each try."""
+
+    choices: tuple[Choice, ...]
+    judge: Callable[[list[PairEvidence], Prior | None, int], Verdict]
+
+
+Chooser = Callable[[Frame, list[FrameRecord]], "Choice | Proposals | tuple[str, Mapping[str, Any]]"]
 Measure = Callable[[Features, np.ndarray, "tuple[Features, np.ndarray] | None"], Mapping[str, float]]
 
 
@@ -160,47 +177,62 @@ def run_vo(
     velocity = np.eye(4)  # last good T_k-1←k (camera k in camera k-1)
     moving: tuple[np.ndarray, np.ndarray] | None = None  # the last accepted step that translated (R, t)
     scale = _Scale(p, K)
-    prev: tuple[Frame, Choice, Features] | None = None
+    prev: tuple[Frame, Choice, dict[str, Features]] | None = None  # the last frame, its taken choice, every tried one's features
     shape = (0, 0)
     for i in range(start, stop):
         frame = sequence[i]
         shape = frame.image.shape[:2]
-        choice = _as_choice(chooser(frame, records))
-        feats = registry.extract(choice.extractor, frame.image, choice.params)
-        extraction_ms = feats.elapsed_ms
-        matching_ms = 0.0
-        matches = inliers = 0
-        lost, reason = False, ""
-        metrics: dict[str, float] = {}
+        proposed = chooser(frame, records)
+        choices, judge = (proposed.choices, proposed.judge) if isinstance(proposed, Proposals) else ((_as_choice(proposed),), None)
+        tries: list[_Try] = []
+        evidence: list[PairEvidence] = []
+        verdict: Verdict | None = None
         estimate: tuple[np.ndarray, np.ndarray] | None = None
         errors: tuple[float, float] | None = None
-        parallax = 0.0
         if prev is None:
+            first = _Try(choices[0], registry.extract(choices[0].extractor, frame.image, choices[0].params))
+            tries.append(first)
+            if measure is not None:
+                first.metrics = dict(measure(first.feats, frame.image, None))
+            taken: _Try | None = first
+            reason = ""
             pose = np.eye(4)
-            if measure is not None:
-                metrics = dict(measure(feats, frame.image, None))
         else:
-            prev_frame, prev_choice, prev_feats = prev
-            same = prev_choice == choice
-            if not same:
-                prev_feats = registry.extract(choice.extractor, prev_frame.image, choice.params)
-                extraction_ms += prev_feats.elapsed_ms
-            if measure is not None:
-                metrics = dict(measure(feats, frame.image, (prev_feats, prev_frame.image)))
-            step, matches, inliers, matching_ms, reason = _step(prev_feats, feats, sequence, K, p)
-            if step is not None:
-                estimate, parallax = (step.R, step.t), step.parallax_px
+            prev_frame, prev_choice, prev_cache = prev
+            prior = Prior(moving[0], motion_direction(*moving)) if moving is not None else None
+            for n, choice in enumerate(choices):
+                t = _try_pair(choice, frame, prev_frame, prev_cache, sequence, K, p, registry, measure)
+                if t.step is not None:
+                    moved = t.step.parallax_px >= p.still_px
+                    t.reason = checks.verdict(t.step.R, t.step.t, frame.timestamp - prev_frame.timestamp, moving, moved)
+                tries.append(t)
+                evidence.append(t.evidence())
+                if judge is None:
+                    break
+                verdict = judge(evidence, prior, len(choices) - n - 1)
+                if verdict.action != NEXT:
+                    break
+            if judge is None:
+                taken = tries[0] if tries[0].step is not None and not tries[0].reason else None
+            else:
+                assert verdict is not None
+                taken = tries[verdict.accepted] if verdict.action == ACCEPT and verdict.accepted is not None else None
+            shown = taken or tries[0]
+            if taken is not None:
+                reason = ""
+            elif judge is None or verdict is None:
+                reason = tries[0].reason
+            else:
+                reason = f"verify: {verdict.reason}" + (f" (first try: {tries[0].reason})" if tries[0].reason else "")
+            if shown.step is not None:
+                estimate = (shown.step.R, shown.step.t)
                 if prev_frame.pose is not None and frame.pose is not None:
-                    errors = pair_errors(step.R, step.t, relative_truth(prev_frame.pose, frame.pose))
-                moved = step.parallax_px >= p.still_px
-                reason = checks.verdict(step.R, step.t, frame.timestamp - prev_frame.timestamp, moving, moved)
-                if reason:
-                    step = None
-                elif moved:
-                    moving = estimate
-            lost = step is None
-            if step is not None:
-                length = scale.step(step, same, prev_frame, frame)
+                    errors = pair_errors(shown.step.R, shown.step.t, relative_truth(prev_frame.pose, frame.pose))
+            if taken is not None and taken.step is not None:
+                step = taken.step
+                if step.parallax_px >= p.still_px:
+                    moving = (step.R, step.t)
+                length = scale.step(step, taken.choice == prev_choice, prev_frame, frame)
                 forward = np.eye(4)  # camera k-1 → camera k
                 forward[:3, :3] = step.R
                 forward[:3, 3] = length * step.t
@@ -208,15 +240,20 @@ def run_vo(
             else:
                 scale.reset()
             pose = poses[-1] @ velocity
+        shown_try = taken or tries[0]
         poses.append(pose)
         stamps.append(frame.timestamp)
         records.append(
             FrameRecord(
-                i, frame.timestamp, choice.extractor, registry.resolve(choice.extractor, choice.params), len(feats),
-                matches, inliers, extraction_ms, matching_ms, lost, reason, metrics, estimate, errors, parallax,
+                i, frame.timestamp, shown_try.choice.extractor, registry.resolve(shown_try.choice.extractor, shown_try.choice.params),
+                len(shown_try.feats), shown_try.matches, shown_try.inliers, sum(t.extraction_ms for t in tries),
+                sum(t.matching_ms for t in tries), taken is None, reason, shown_try.metrics, estimate, errors,
+                shown_try.step.parallax_px if shown_try.step is not None else 0.0, len(tries),
+                verdict.as_dict() if verdict is not None else None,
             )
         )
-        prev = (frame, choice, feats)
+        accepted = taken or tries[0]
+        prev = (frame, accepted.choice, {t.choice.key: t.feats for t in tries})
     return VOResult(np.array(poses).reshape(-1, 4, 4), np.array(stamps), records, p.max_lost_fraction, shape[1], shape[0])
 
 
@@ -229,6 +266,51 @@ class _Step:
     p1: np.ndarray
     p2: np.ndarray
     parallax_px: float
+
+
+@dataclass
+class _Try:
+    """One candidate tried on a frame pair."""
+
+    choice: Choice
+    feats: Features
+    step: _Step | None = None
+    matches: int = 0
+    inliers: int = 0
+    extraction_ms: float = 0.0
+    matching_ms: float = 0.0
+    reason: str = ""  # why the geometry lost it, or why a front-end check rejected it
+    metrics: dict[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not self.extraction_ms:
+            self.extraction_ms = self.feats.elapsed_ms
+
+    def evidence(self) -> PairEvidence:
+        s = self.step
+        return PairEvidence.of(
+            self.choice.extractor, self.choice.params, s.R if s is not None else None, s.t if s is not None else None,
+            keypoints=len(self.feats), matches=self.matches, inliers=self.inliers,
+            parallax_px=s.parallax_px if s is not None else 0.0, extraction_ms=self.extraction_ms, rejected=self.reason,
+        )
+
+
+def _try_pair(
+    choice: Choice, frame: Frame, prev_frame: Frame, prev_cache: dict[str, Features], seq: Sequence, K: np.ndarray,
+    p: VOParams, registry: ExtractorRegistry, measure: Measure | None,
+) -> _Try:
+    """Extract frame k with ``choice`` (and frame k−1, unless it was extracted with it), match, estimate."""
+    feats = registry.extract(choice.extractor, frame.image, choice.params)
+    ms = feats.elapsed_ms
+    prev_feats = prev_cache.get(choice.key)
+    if prev_feats is None:
+        prev_feats = prev_cache[choice.key] = registry.extract(choice.extractor, prev_frame.image, choice.params)
+        ms += prev_feats.elapsed_ms
+    t = _Try(choice, feats, extraction_ms=ms)
+    if measure is not None:
+        t.metrics = dict(measure(feats, frame.image, (prev_feats, prev_frame.image)))
+    t.step, t.matches, t.inliers, t.matching_ms, t.reason = _step(prev_feats, feats, seq, K, p)
+    return t
 
 
 def _step(a: Features, b: Features, seq: Sequence, K: np.ndarray, p: VOParams) -> tuple[_Step | None, int, int, float, str]:

@@ -1,14 +1,21 @@
-"""Frame streams: a session remembers the previous frame so temporal metrics and motion work."""
+"""Frame streams: a session remembers the previous frame so temporal metrics and motion work, and judges each
+frame pair's estimates (the verification stage: the frame's proposals, then ``/verdict``)."""
 from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 from fastapi import APIRouter, Request, Response
 from fastapi.concurrency import run_in_threadpool
+
+from nfex_core.errors import BadInput, NfexError
+from nfex_core.verification import ACCEPT, NEXT, STILL_PX, PairEvidence, Prior, judge
 
 from ..deps import AdvisorDep, SessionsDep, SettingsDep
 from ..frames import read_select
 from ..schemas import PROBLEM_RESPONSES, Session, SessionCreate, SessionSelection, problems
+from ..schemas.requests import TriedCandidate, VerdictRequest
+from ..schemas.selection import Verdict
 
 router = APIRouter(prefix="/v1/sessions", tags=["sessions"])
 
@@ -44,11 +51,68 @@ async def post_frame(session_id: str, request: Request, sessions: SessionsDep, a
             selection = advisor.select(context, frame, session.state)
             temporal = session.state is not None
             sessions.keep(session, selection.state)
+            session.pending = (selection.proposals, selection.verification)
             out = selection.as_dict()
             out["session"] = {"id": session.id, "frame": session.frames, "temporal": temporal}
             return out
 
     return await run_in_threadpool(work)
+
+
+@router.post(
+    "/{session_id}/verdict",
+    summary="Judge the frame pair: the estimates of the proposals tried so far → accept, the next candidate, or fall back",
+    response_model=Verdict,
+    response_model_exclude_unset=True,
+    responses={**PROBLEM_RESPONSES, **problems(409)},
+)
+def post_verdict(session_id: str, body: VerdictRequest, sessions: SessionsDep) -> dict[str, Any]:
+    """The verification stage over HTTP (nfex_core/verification.py; docs/service.md, "Verified selection")."""
+    session = sessions.get(session_id)
+    with session.lock:
+        if session.pending is None:
+            raise NoPairToJudge(f"session {session_id} has no frame pair awaiting a verdict: POST the next frame to "
+                                f"/v1/sessions/{session_id}/frames first (a pair is judged once)")
+        proposals, policy = session.pending
+        tried = [_evidence(i, t) for i, t in enumerate(body.tried)]
+        verdict = judge(policy, tried, session.prior, max(0, len(proposals) - len(tried)))
+        out = verdict.as_dict()
+        out["tries"] = len(tried)
+        if verdict.action == NEXT:
+            nxt = proposals[len(tried)]
+            out["next"] = {"extractor": nxt.extractor, "params": nxt.params}
+            return out
+        session.pending = None
+        if verdict.action == ACCEPT and verdict.accepted is not None:
+            e = tried[verdict.accepted]
+            if e.parallax_px >= STILL_PX:
+                session.prior = Prior(e.matrix(), np.asarray(e.direction, dtype=float))
+        return out
+
+
+def _evidence(i: int, t: TriedCandidate) -> PairEvidence:
+    """A reported estimate, checked: R a rotation, t a non-zero 3-vector (or both null: lost)."""
+    if t.R is None and t.t is None:
+        return PairEvidence(t.extractor, dict(t.params), keypoints=t.keypoints, matches=t.matches, inliers=t.inliers,
+                            parallax_px=t.parallax_px, extraction_ms=t.extraction_ms, rejected=t.rejected or "lost")
+    R = np.asarray(t.R, dtype=float) if t.R is not None else None
+    v = np.asarray(t.t, dtype=float) if t.t is not None else None
+    if R is None or v is None or R.shape != (3, 3) or v.shape != (3,):
+        raise BadInput(f"tried[{i}]: R must be a 3×3 matrix and t a 3-vector (or both null for a lost pair)")
+    if not np.allclose(R @ R.T, np.eye(3), atol=1e-3) or abs(float(np.linalg.det(R)) - 1.0) > 1e-3:
+        raise BadInput(f"tried[{i}]: R is not a rotation (RᵀR must be I and det R = 1, within 1e-3)")
+    n = float(np.linalg.norm(v))
+    if not np.isfinite(n) or n == 0:
+        raise BadInput(f"tried[{i}]: t must be a finite, non-zero vector")
+    return PairEvidence.of(t.extractor, t.params, R, v / n, keypoints=t.keypoints, matches=t.matches, inliers=t.inliers,
+                           parallax_px=t.parallax_px, extraction_ms=t.extraction_ms, rejected=t.rejected)
+
+
+class NoPairToJudge(NfexError):
+    status = 409
+    type = "no-pair-to-judge"
+    title = "No frame pair awaits a verdict"
+    exit_code = 2
 
 
 @router.delete("/{session_id}", status_code=204, summary="Close a stream", responses=PROBLEM_RESPONSES)

@@ -114,3 +114,33 @@ class RollbackIn(BaseModel):
     model_config = ConfigDict(extra="forbid", json_schema_extra={"examples": [{"to": 1}]})
 
     to: int = Field(..., ge=0)
+
+
+class TriedCandidate(BaseModel):
+    """What one candidate's estimate of the frame pair showed (nfex_core.verification.PairEvidence)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    extractor: str
+    params: dict[str, int | float | bool] = Field(default_factory=dict)
+    keypoints: int = Field(0, ge=0)
+    matches: int = Field(0, ge=0)
+    inliers: int = Field(0, ge=0)
+    parallax_px: float = Field(0.0, ge=0)
+    extraction_ms: float = Field(0.0, ge=0)
+    R: list[list[float]] | None = Field(None, description="The estimated rotation (3×3, X_k = R·X_k−1 + t); null: the pair was lost.")
+    t: list[float] | None = Field(None, description="The estimated translation (3, any scale).")
+    rejected: str = Field("", description="Why the client's front-end checks or its geometry lost the pair (empty: they did not).")
+
+
+class VerdictRequest(BaseModel):
+    """The estimates of the frame pair tried so far, in the order of the proposals (send them one at a time or all at once)."""
+
+    model_config = ConfigDict(
+        extra="forbid",
+        json_schema_extra={"examples": [{"tried": [{"extractor": "ORB", "keypoints": 2000, "matches": 400, "inliers": 310,
+                                                    "parallax_px": 6.5, "extraction_ms": 4.8,
+                                                    "R": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "t": [0, 0, -1]}]}]},
+    )
+
+    tried: list[TriedCandidate] = Field(..., min_length=1, max_length=8)

@@ -30,7 +30,7 @@ class Citation(Out):
     rule: str = Field(..., description="The rule's IRI.")
     label: str
     reason: str
-    kind: str = Field(..., description="sparql | prune | adjust | weight | prefer | require | shape | budget | measured")
+    kind: str = Field(..., description="sparql | prune | adjust | weight | prefer | require | accept | escalate | shape | budget | measured")
     source: str | None = Field(None, description="The file or program the rule came from.")
 
 
@@ -169,6 +169,27 @@ class Keypoints(Out):
     extraction_ms: float
 
 
+class AcceptRule(Out):
+    tests: list[str] = Field(..., description="`signal comparator threshold`; the rule accepts when all hold.")
+    because: Citation
+
+
+class Proposal(Out):
+    extractor: str
+    params: dict[str, Value]
+
+
+class Verification(Out):
+    """How the frame pair is verified (docs/service.md, "Verified selection"): try ``proposals`` in order, report
+    each estimate to ``POST /v1/sessions/{id}/verdict``; ``accept`` empty: the first estimate that passes the
+    front-end checks is taken."""
+
+    max_tries: int = Field(..., description="1 + the escalations allowed.")
+    accept: list[AcceptRule]
+    escalation: Citation | None
+    proposals: list[Proposal] = Field(..., description="The candidates to try, in order (one per extractor).")
+
+
 class Selection(Out):
     """α*, Θ′ and why."""
 
@@ -181,6 +202,7 @@ class Selection(Out):
     context: list[ContextEntry]
     weights: dict[str, Weight]
     budget: Budget | None
+    verification: Verification
     warnings: list[str]
     versions: Versions
     timings_ms: dict[str, float]
@@ -191,6 +213,18 @@ class StreamPosition(Out):
     id: str
     frame: int
     temporal: bool = Field(..., description="Whether temporal metrics and motion had a previous frame.")
+
+
+class Verdict(Out):
+    """The decision on a frame pair after the candidates tried so far."""
+
+    action: str = Field(..., description="accept | next (try `next`) | fallback (use the motion prior: the last accepted motion)")
+    reason: str
+    accepted: int | None = Field(None, description="Index into `tried` of the estimate to use (action accept).")
+    because: Citation | None = Field(None, description="The accept statement that held, or the escalate statement in force.")
+    next: Proposal | None = Field(None, description="The next candidate to try (action next).")
+    signals: list[dict[str, float | None]] = Field(..., description="Each try's signals (docs/dsl.md, Verification); null: undefined.")
+    tries: int = Field(..., description="Candidates tried on this pair so far.")
 
 
 class SessionSelection(Selection):

@@ -121,3 +121,64 @@ def test_store_bounds_memory_by_dropping_least_recent_states() -> None:
     assert b.state is None and a.state is not None and c.state is not None
     store.keep(a, state(5000))  # larger than the whole budget: not kept
     assert a.state is None and store.bytes_held <= 3000
+
+
+def _estimate(yaw_deg: float, heading_deg: float, extractor: str, **measured: float) -> dict:  # type: ignore[type-arg]
+    """A reported estimate that yaws by ``yaw_deg`` and moves ``heading_deg`` off straight ahead."""
+    import math
+
+    a, h = math.radians(yaw_deg), math.radians(heading_deg)
+    R = np.array([[math.cos(a), 0, math.sin(a)], [0, 1, 0], [-math.sin(a), 0, math.cos(a)]])
+    d = np.array([math.sin(h), 0.0, math.cos(h)])
+    t = -R @ d
+    return {"extractor": extractor, "R": R.tolist(), "t": t.tolist(), "keypoints": 2000, "matches": 600, "inliers": 400,
+            "parallax_px": 8.0, "extraction_ms": 5.0, **measured}
+
+
+def test_a_stream_verifies_each_pair_accepting_escalating_and_falling_back(service: Service, data_dir) -> None:  # type: ignore[no-untyped-def]
+    """The verification protocol through a real `nfex serve`: the frame's proposals, then /verdict with the
+    estimates tried so far: next (with the next proposal), accept (citing the accept statement), fallback."""
+    sid = httpx.post(service.url + "/v1/sessions", json={"context": {"agent": "car", "scene": "outdoor"}}).json()["id"]
+    frames = [cv2.imread(str(data_dir / "kitti" / "sequences" / "00" / "image_0" / f"{i:06d}.png"), cv2.IMREAD_GRAYSCALE) for i in range(4)]
+
+    def frame(i: int) -> dict:  # type: ignore[type-arg]
+        ok, buf = cv2.imencode(".png", frames[i])
+        r = httpx.post(f"{service.url}/v1/sessions/{sid}/frames", files={"frame": ("f.png", bytes(buf), "image/png")}, timeout=120)
+        assert r.status_code == 200, r.text
+        return r.json()["verification"]  # type: ignore[no-any-return]
+
+    def verdict(tried: list) -> httpx.Response:  # type: ignore[type-arg]
+        return httpx.post(f"{service.url}/v1/sessions/{sid}/verdict", json={"tried": tried}, timeout=30)
+
+    v = frame(0)
+    assert v["accept"], "the shipped graph holds the verification program"
+    assert v["max_tries"] >= 2 and 1 <= len(v["proposals"]) <= v["max_tries"]
+    first, second = v["proposals"][0]["extractor"], v["proposals"][1]["extractor"]
+    assert first != second  # escalation goes to a different extractor
+    v = frame(1)
+    # no motion prior yet and one estimate: nothing vouches for it → the next proposal
+    r = verdict([_estimate(0.2, 1.0, first)])
+    assert r.status_code == 200, r.text
+    out = r.json()
+    assert out["action"] == "next" and out["next"]["extractor"] == v["proposals"][1]["extractor"] and out["tries"] == 1
+    assert out["signals"][0]["heading_change"] is None and out["signals"][0]["agreement"] is None
+    # a second, agreeing estimate: both vouch for each other; the first in order is taken
+    out = verdict([_estimate(0.2, 1.0, first), _estimate(0.25, 1.2, out["next"]["extractor"])]).json()
+    assert out["action"] == "accept" and out["accepted"] == 0 and "agreement" in out["because"]["label"]
+    assert_problem(verdict([_estimate(0.2, 1.0, first)]), 409, "no-pair-to-judge")  # a pair is judged once
+    # now the motion so far is known: a consistent estimate is accepted at once, by the motion rule
+    frame(2)
+    out = verdict([_estimate(0.3, 1.1, first)]).json()
+    assert out["action"] == "accept" and "heading_change" in out["because"]["label"]
+    # a pair every candidate gets wrong, each differently, falls back to the motion prior
+    v = frame(3)
+    wild = [_estimate(40.0 * (k + 1), 90.0 + 30 * k, p["extractor"]) for k, p in enumerate(v["proposals"])]
+    out = verdict(wild).json()
+    assert out["action"] == "fallback" and "motion prior" in out["reason"]
+    # bad input: a matrix that is not a rotation, a lost pair is fine
+    frame(3)
+    bad = _estimate(0.0, 0.0, first)
+    bad["R"] = [[2, 0, 0], [0, 1, 0], [0, 0, 1]]
+    assert "not a rotation" in assert_problem(verdict([bad]), 400, "bad-input")["detail"]
+    lost = verdict([{"extractor": first, "R": None, "t": None, "rejected": "too few matches"}]).json()
+    assert lost["action"] == "next" and lost["signals"][0]["rotation"] is None

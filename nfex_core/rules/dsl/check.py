@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from ...errors import NfexError, ParameterError, UnknownName
 from ...kg.vocab import Vocabulary
+from ..types import MAX_ESCALATIONS, PAIR_COMPARATORS, PAIR_SIGNALS
 from .parser import Pos, Program, Statement
 
 
@@ -59,6 +60,13 @@ def _check_statement(program: Program, s: Statement, vocab: Vocabulary) -> list[
             out.append(_unknown(program, at.get("metric", s.pos), "metric", s.metric, vocab.metrics))
         if isinstance(s.value, int | float) and s.value < 0:
             out.append(_bad(program, at.get("value", s.pos), f"a metric weight must be 0 or more, not {s.value}"))
+    for t in s.tests:
+        if t.signal not in PAIR_SIGNALS:
+            out.append(_unknown(program, t.at.get("signal", s.pos), "pair signal", t.signal, sorted(PAIR_SIGNALS)))
+        if t.comparator not in PAIR_COMPARATORS:
+            out.append(_bad(program, t.at.get("comparator", s.pos), f"a pair test compares with one of {', '.join(PAIR_COMPARATORS)}, not {t.comparator!r}"))
+    if s.kind == "escalate" and not (isinstance(s.value, int) and 0 <= s.value <= MAX_ESCALATIONS):
+        out.append(_bad(program, at.get("value", s.pos), f"escalate at most takes a whole number from 0 to {MAX_ESCALATIONS}, not {s.value}"))
     for atom in s.when:
         if atom.dimension not in vocab.dimensions:
             out.append(_unknown(program, atom.at.get("dimension", s.pos), "condition dimension", atom.dimension, vocab.dimensions))

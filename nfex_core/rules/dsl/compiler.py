@@ -2,8 +2,9 @@
 
 A program becomes an ``nfex:Program`` individual; each statement an individual of
 ``nfex:PruneStatement`` | ``AdjustStatement`` | ``WeightStatement`` | ``PreferStatement`` |
-``RequireStatement`` with ``nfex:inProgram``, ``rdfs:label`` (its canonical text, what selections
-cite), ``nfex:reason``, ``nfex:order`` and ``nfex:line``, and one ``nfex:ConditionAtom`` per
+``RequireStatement`` | ``AcceptStatement`` (its tests as ``nfex:PairTest`` nodes: ``nfex:signal``,
+``nfex:testComparator``, ``nfex:threshold``) | ``EscalateStatement`` (``nfex:maxEscalations``) with
+``nfex:inProgram``, ``rdfs:label`` (its canonical text, what selections cite), ``nfex:reason``, ``nfex:order`` and ``nfex:line``, and one ``nfex:ConditionAtom`` per
 ``dimension is [not] value(s)`` (``nfex:dimension``, ``nfex:oneOf``, ``nfex:negated``). Names become
 the IRIs of the graph's extractors, parameters, metrics and condition values, so SPARQL can join rules
 with the ontology and with measurements. ``decompile`` reads the triples back into the same AST:
@@ -31,7 +32,7 @@ from ...kg.vocab import (
 from ...namespaces import NFEX
 from ..shape_text import require_shape
 from ..types import ConditionAtom
-from .parser import Atom, Pos, Program, Statement
+from .parser import Atom, Pos, Program, Statement, Test
 
 CLASSES = {
     "prune": NFEX.PruneStatement,
@@ -39,6 +40,8 @@ CLASSES = {
     "weight": NFEX.WeightStatement,
     "prefer": NFEX.PreferStatement,
     "require": NFEX.RequireStatement,
+    "accept": NFEX.AcceptStatement,
+    "escalate": NFEX.EscalateStatement,
 }
 KINDS = {v: k for k, v in CLASSES.items()}
 VALUE_PROPERTY = {"adjust": NFEX.factor, "weight": NFEX.weight, "prefer": NFEX.bonus, "require": NFEX.bound}
@@ -83,6 +86,16 @@ def compile_program(program: Program, vocab: Vocabulary, *, source_file: str | N
             g += _require_shape(iri, s, vocab, label)
         elif s.kind in VALUE_PROPERTY:
             g.add((iri, VALUE_PROPERTY[s.kind], _double(s.value)))
+        if s.kind == "escalate":
+            g.add((iri, NFEX.maxEscalations, Literal(int(s.value or 0))))
+        for i, t in enumerate(s.tests, start=1):
+            node = URIRef(f"{iri}_test_{i}")
+            g.add((iri, NFEX.hasTest, node))
+            g.add((node, RDF.type, NFEX.PairTest))
+            g.add((node, NFEX.order, Literal(i)))
+            g.add((node, NFEX.signal, Literal(t.signal)))
+            g.add((node, NFEX.testComparator, Literal(t.comparator)))
+            g.add((node, NFEX.threshold, _double(t.bound)))
         for i, atom in enumerate(s.when, start=1):
             a = URIRef(f"{iri}_when_{i}")
             dim = vocab.dimension(atom.dimension)
@@ -123,6 +136,11 @@ def _atom(g: rdflib.Graph, a: URIRef, vocab: Vocabulary) -> Atom:
     return Atom(_name(vocab, g.value(a, NFEX.dimension)), values, bool(neg.toPython()) if isinstance(neg, Literal) else False)
 
 
+def _test(g: rdflib.Graph, t: URIRef) -> Test:
+    bound = g.value(t, NFEX.threshold)
+    return Test(str(g.value(t, NFEX.signal)), str(g.value(t, NFEX.testComparator)), bound.toPython() if isinstance(bound, Literal) else 0.0)
+
+
 def _statement(g: rdflib.Graph, s: URIRef, kind: str, vocab: Vocabulary) -> Statement:
     atoms = sorted(g.objects(s, NFEX.hasCondition), key=lambda a: (_int(g, a, NFEX.order), str(a)))  # type: ignore[arg-type]
     reason = g.value(s, NFEX.reason)
@@ -141,6 +159,11 @@ def _statement(g: rdflib.Graph, s: URIRef, kind: str, vocab: Vocabulary) -> Stat
         fields["value"] = v.toPython() if isinstance(v, Literal) else None
     if kind == "require":
         fields["comparator"] = str(g.value(s, NFEX.comparator))
+    if kind == "escalate":
+        fields["value"] = _int(g, s, NFEX.maxEscalations)
+    if kind == "accept":
+        tests = sorted(g.objects(s, NFEX.hasTest), key=lambda t: (_int(g, t, NFEX.order), str(t)))  # type: ignore[arg-type]
+        fields["tests"] = tuple(_test(g, t) for t in tests)  # type: ignore[arg-type]
     return Statement(
         kind,
         tuple(_atom(g, a, vocab) for a in atoms),  # type: ignore[arg-type]

@@ -55,8 +55,21 @@ class Atom:
 
 
 @dataclass(frozen=True)
+class Test:
+    """``signal comparator bound``: one test of an ``accept pair if …`` statement (verification.py)."""
+
+    signal: str
+    comparator: str
+    bound: float | int
+    at: Mapping[str, Pos] = _at()  # "signal", "comparator", "bound"
+
+    def text(self) -> str:
+        return f"{self.signal} {self.comparator} {_num(self.bound)}"
+
+
+@dataclass(frozen=True)
 class Statement:
-    """One statement. ``kind`` is prune | adjust | weight | prefer | require."""
+    """One statement. ``kind`` is prune | adjust | weight | prefer | require | accept | escalate."""
 
     kind: str
     when: tuple[Atom, ...] = ()
@@ -66,6 +79,7 @@ class Statement:
     metric: str | None = None  # weight
     value: float | int | bool | None = None  # factor, weight, bonus or bound
     comparator: str | None = None  # require
+    tests: tuple[Test, ...] = ()  # accept
     pos: Pos = field(default=NOWHERE, compare=False, repr=False)
     at: Mapping[str, Pos] = _at()  # "extractor", "parameter", "metric", "value"
 
@@ -79,6 +93,10 @@ class Statement:
             return f"weight {self.metric} {_num(self.value)}"
         if self.kind == "prefer":
             return f"prefer {self.extractor} by {_num(self.value)}"
+        if self.kind == "accept":
+            return "accept pair if " + " and ".join(t.text() for t in self.tests)
+        if self.kind == "escalate":
+            return f"escalate at most {_num(self.value)}"
         return f"require {self.extractor}.{self.parameter} {self.comparator} {_num(self.value)}"
 
     def label(self) -> str:
@@ -151,6 +169,10 @@ class _ToAst(Transformer):
     def reason(self, meta: Any, items: list[Token]) -> str:
         return unquote(str(items[0]))
 
+    def test(self, meta: Any, items: list[Any]) -> Test:
+        name, cmp, (bound, bpos) = items
+        return Test(str(name), str(cmp), bound, {"signal": _pos(name), "comparator": _pos(cmp), "bound": bpos})
+
     def single(self, meta: Any, items: list[Token]) -> list[Token]:
         return items
 
@@ -193,6 +215,15 @@ class _ToAst(Transformer):
     def prefer(self, meta: Any, items: list[Any]) -> Statement:
         x, (v, vpos) = items[0], items[1]
         return self._statement("prefer", meta, items[2:], extractor=str(x), value=v, at={"extractor": _pos(x), "value": vpos})
+
+    def accept(self, meta: Any, items: list[Any]) -> Statement:
+        tests = tuple(i for i in items if isinstance(i, Test))
+        rest = [i for i in items if not isinstance(i, Test)]
+        return self._statement("accept", meta, rest, tests=tests, at={})
+
+    def escalate(self, meta: Any, items: list[Any]) -> Statement:
+        v, vpos = items[0]
+        return self._statement("escalate", meta, items[1:], value=v, at={"value": vpos})
 
     def require(self, meta: Any, items: list[Any]) -> Statement:
         (x, p), cmp, bound = items[0], items[1], items[2]

@@ -58,13 +58,14 @@ def compile_text(text: str, vocab: Vocabulary, *, name: str, source: str | None 
 
 
 def program_graph(kg: KnowledgeGraph, name: str) -> rdflib.Graph:
-    """Every triple of the program ``name`` in the graph: the program node, its statements and their atoms."""
+    """Every triple of the program ``name`` in the graph: the program node, its statements, their atoms and pair tests."""
     p = n3(program_iri(name))
     g = kg.construct(
         f"""CONSTRUCT {{ ?s ?p ?o }} WHERE {{
             {{ BIND ({p} AS ?s) ?s ?p ?o }}
             UNION {{ ?s nfex:inProgram {p} ; ?p ?o }}
             UNION {{ ?st nfex:inProgram {p} ; nfex:hasCondition ?s . ?s ?p ?o }}
+            UNION {{ ?st nfex:inProgram {p} ; nfex:hasTest ?s . ?s ?p ?o }}
         }}"""
     )
     g += shape_graph(kg, set(g.objects(None, NFEX.shape)))  # the SHACL shapes of its require statements

@@ -103,3 +103,27 @@ def test_a_seed_varies_ransac_reproducibly(kitti01: Sequence, registry: Extracto
     assert np.array_equal(run(None), run(None))
     assert np.array_equal(run(1), run(1))
     assert not np.array_equal(run(1), run(2))
+
+
+def test_a_verified_pair_escalates_to_the_next_proposal_and_counts_every_try(kitti00: Sequence, registry: ExtractorRegistry) -> None:
+    from nfex_core.rules.types import AcceptRule, Citation, PairTest, Policy
+    from nfex_core.verification import judge
+    from nfex_core.vo import Proposals
+
+    seq = _copy(kitti00, 5)
+    enough = Policy((AcceptRule((PairTest("inliers", ">=", 30),), (), Citation("urn:a", "accept pair if inliers >= 30", "", "accept")),), 1)
+    starved = Choice("ORB", {"nfeatures": 12})  # too few keypoints to match: the pair is lost
+    both = Proposals((starved, Choice("SIFT")), lambda tried, prior, left: judge(enough, tried, prior, left))
+    res = run_vo(seq, lambda f, h: both, registry=registry)
+    pairs = res.frames[1:]
+    assert all(f.tries == 2 and f.extractor == "SIFT" and not f.lost for f in pairs)
+    assert all(f.verdict is not None and f.verdict["action"] == "accept" and f.verdict["accepted"] == 1 for f in pairs)
+    # the cost counts both candidates on both frames (the starved ORB is re-extracted on frame k-1 only once)
+    alone = run_vo(seq, fixed("SIFT"), registry=registry)
+    assert all(f.extraction_ms > g.extraction_ms for f, g in zip(pairs, alone.frames[1:], strict=True))
+    assert np.allclose(res.poses, alone.poses)  # SIFT's estimates, taken every time
+
+    only = Proposals((starved,), lambda tried, prior, left: judge(enough, tried, prior, left))
+    fell = run_vo(seq, lambda f, h: only, registry=registry)
+    assert fell.lost == [1, 2, 3, 4]
+    assert all(f.reason.startswith("verify: ") and "motion prior" in f.reason for f in fell.frames[1:])

@@ -1,0 +1,188 @@
+"""Verification: per frame pair, accept a candidate's estimate, try the next one, or fall back to the motion prior.
+
+The stage after scoring in DESIGN.md's flow. Choosing by condition labels cannot tell which estimate of a
+frame pair is right (EVIDENCE.md); the pair itself can. A client (or the VO) matches the first proposal
+against the previous frame and reports what the estimate showed; this module decides.
+
+**Signals** of candidate i's estimate (R_i, unit t_i) of the pair (k−1, k), d_i = −R_iᵀt_i its direction of
+motion (``motion.motion_direction``), given the motion prior — the last accepted step that translated,
+(R_p, t_p) — and the other candidates tried on the same pair:
+
+    inliers, matches, keypoints, parallax (px), extraction_ms     as measured
+    rotation         θ(R_i)                                       degrees, θ(R) = arccos((tr R − 1)/2)
+    rotation_change  θ(R_pᵀ·R_i)                                  departure from the prior's rotation
+    heading_change   ∠(R_p·d_p, d_i)                              as the front-end checks (motion.StepChecks)
+    agreement        min_j≠i [θ(R_jᵀ·R_i) + ∠(d_j, d_i)]          over the other candidates with an estimate
+
+A signal that cannot be computed (no prior yet, no second estimate, no estimate at all) is *undefined*, and a
+test on it fails: a rule accepts only on the evidence it names.
+
+**Policy** (per context, compiled from the nFEX language; docs/dsl.md, "Verification"):
+
+    accept pair if heading_change <= 4 and rotation_change <= 1.5 when agent is car
+    accept pair if agreement <= 2
+    escalate at most 2
+
+An estimate is *accepted* when it passed the front-end checks and every test of at least one ``accept``
+statement in force holds. After each try: the first accepted estimate in proposal order is taken; else, while
+fewer than 1 + N candidates were tried (N: the smallest ``escalate at most N`` in force, default
+``DEFAULT_ESCALATIONS``) and proposals remain, the next one is tried; else the pair *falls back* to the motion
+prior (the VO repeats the last accepted motion). Where there is no motion prior yet (a stream's first pairs, or
+a single affordable candidate that nothing else can vouch for), there is nothing to fall back to: the first
+estimate that passed the front-end checks is taken, as without verification — otherwise a stream with one
+candidate could never accept its first pair, and so never have a prior. A policy without ``accept`` statements accepts every estimate
+that passed the front-end checks — the behaviour of every method without verification.
+"""
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .motion import angle_between, motion_direction, rotation_deg
+from .rules.types import Citation, Policy
+
+ACCEPT, NEXT, FALLBACK = "accept", "next", "fallback"
+STILL_PX = 0.5  # a step whose median inlier parallax is below this did not translate (vo.VOParams.still_px)
+
+
+@dataclass
+class PairEvidence:
+    """What one candidate's estimate of a frame pair showed (a client reports these over HTTP)."""
+
+    extractor: str
+    params: dict[str, Any] = field(default_factory=dict)
+    keypoints: int = 0
+    matches: int = 0
+    inliers: int = 0
+    parallax_px: float = 0.0
+    extraction_ms: float = 0.0
+    rotation: tuple[float, float, float] | None = None  # rotation vector (rad) of R; None: no estimate
+    direction: tuple[float, float, float] | None = None  # unit direction of motion d = −Rᵀt
+    rejected: str = ""  # why the front-end checks or the geometry lost it ("" if they did not)
+
+    @property
+    def estimated(self) -> bool:
+        return self.rotation is not None and self.direction is not None and not self.rejected
+
+    def matrix(self) -> np.ndarray:
+        import cv2
+
+        R, _ = cv2.Rodrigues(np.asarray(self.rotation, dtype=float).reshape(3, 1))
+        return np.asarray(R, dtype=float)
+
+    @classmethod
+    def of(cls, extractor: str, params: Mapping[str, Any], R: np.ndarray | None, t: np.ndarray | None,
+           **measured: Any) -> PairEvidence:
+        """From an estimate (R, unit t) as the VO makes it (None: the pair was lost)."""
+        rotation = direction = None
+        if R is not None and t is not None:
+            import cv2
+
+            v, _ = cv2.Rodrigues(np.asarray(R, dtype=float))
+            rotation = (float(v[0, 0]), float(v[1, 0]), float(v[2, 0]))
+            d = motion_direction(R, t)
+            direction = (float(d[0]), float(d[1]), float(d[2]))
+        return cls(extractor, dict(params), rotation=rotation, direction=direction, **measured)
+
+
+@dataclass(frozen=True)
+class Prior:
+    """The motion so far: the last accepted step that translated, (R_p, d_p)."""
+
+    R: np.ndarray
+    direction: np.ndarray
+
+
+def signals(tried: Sequence[PairEvidence], i: int, prior: Prior | None) -> dict[str, float | None]:
+    """The signals of candidate i among ``tried`` (module docstring); None where undefined."""
+    e = tried[i]
+    out: dict[str, float | None] = {
+        "inliers": float(e.inliers), "matches": float(e.matches), "keypoints": float(e.keypoints),
+        "parallax": float(e.parallax_px), "extraction_ms": float(e.extraction_ms),
+        "rotation": None, "rotation_change": None, "heading_change": None, "agreement": None,
+    }
+    if not e.estimated:
+        return out
+    R, d = e.matrix(), np.asarray(e.direction, dtype=float)
+    out["rotation"] = rotation_deg(R)
+    if prior is not None:
+        out["rotation_change"] = rotation_deg(prior.R.T @ R)
+        out["heading_change"] = angle_between(prior.R @ prior.direction, d)
+    others = [o for j, o in enumerate(tried) if j != i and o.estimated]
+    if others:
+        out["agreement"] = min(rotation_deg(o.matrix().T @ R) + angle_between(np.asarray(o.direction, dtype=float), d) for o in others)
+    return out
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The decision after the tries so far. ``action``: accept | next | fallback; ``accepted``: the index
+    of the accepted try; ``because``: the accept statement that held (or why the pair fell back)."""
+
+    action: str
+    accepted: int | None = None
+    because: Citation | None = None
+    reason: str = ""
+    shown: tuple[dict[str, float | None], ...] = ()  # each try's signals
+
+    def as_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"action": self.action, "reason": self.reason}
+        if self.accepted is not None:
+            out["accepted"] = self.accepted
+        if self.because is not None:
+            out["because"] = self.because.as_dict()
+        out["signals"] = [{k: (round(v, 4) if v is not None else None) for k, v in s.items()} for s in self.shown]
+        return out
+
+
+def judge(policy: Policy, tried: Sequence[PairEvidence], prior: Prior | None, remaining: int) -> Verdict:
+    """Accept, try the next proposal, or fall back (module docstring). ``remaining``: proposals not yet tried."""
+    shown = tuple(signals(tried, i, prior) for i in range(len(tried)))
+    if not policy.active:
+        first_ok = next((i for i, e in enumerate(tried) if e.estimated), None)
+        if first_ok is not None:
+            return Verdict(ACCEPT, first_ok, None, "no verification in force: the estimate passed the front-end checks", shown)
+        return Verdict(FALLBACK, None, None, "no verification in force and the estimate was lost", shown)
+    for i, e in enumerate(tried):
+        if not e.estimated:
+            continue
+        for rule in policy.accept:
+            if all(t.holds(shown[i]) for t in rule.tests):
+                return Verdict(ACCEPT, i, rule.citation, f"{e.extractor}: {rule.citation.label}", shown)
+    if len(tried) < policy.max_tries and remaining > 0:
+        return Verdict(NEXT, None, policy.escalation_citation, f"no accept statement held for {len(tried)} tried", shown)
+    if prior is None:
+        first_ok = next((i for i, e in enumerate(tried) if e.estimated), None)
+        if first_ok is not None:  # nothing to fall back to: take what passed the front-end checks, as without verification
+            return Verdict(ACCEPT, first_ok, None, "no motion prior yet to fall back to: the first estimate that passed the front-end checks", shown)
+    why = f"no accept statement held for the {len(tried)} candidate(s) tried"
+    return Verdict(FALLBACK, None, policy.escalation_citation, why + "; the motion prior stands in", shown)
+
+
+class BudgetWindow:
+    """A budget B as a mean over W frames with a per-frame cap of C·B (``nfex:budgetWindow``,
+    ``nfex:verificationCap``): a pair may try a further candidate of expected cost m (its re-extraction of the
+    previous frame included: 2m) when the frame's ms so far plus 2m stays within C·B and the mean over the last
+    W − 1 frames and this one within B."""
+
+    def __init__(self, budget_ms: float, window: int, cap: float) -> None:
+        self.budget_ms, self.window, self.cap = budget_ms, max(1, window), max(1.0, cap)
+        self.spent: deque[float] = deque(maxlen=self.window - 1) if self.window > 1 else deque(maxlen=0)
+
+    def allows(self, so_far_ms: float, expected_ms: float | None) -> bool:
+        if expected_ms is None or not math.isfinite(expected_ms):
+            return False
+        frame = so_far_ms + 2.0 * expected_ms
+        if frame > self.cap * self.budget_ms:
+            return False
+        return (sum(self.spent) + frame) / (len(self.spent) + 1) <= self.budget_ms
+
+    def close(self, frame_ms: float) -> None:
+        """A frame is done: it spent ``frame_ms``."""
+        if self.spent.maxlen:
+            self.spent.append(frame_ms)
