@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
 from typing import Annotated
 
 from fastapi import Depends, Header, Request
@@ -44,10 +45,18 @@ def expected_version(if_match: Annotated[str | None, Header(alias="If-Match")] =
     return int(m.group(1))
 
 
+def editor_write(request: Request, token: Annotated[Token, Depends(require("editor", "this write"))]) -> Iterator[Token]:
+    """The editor's token for a write; once the write succeeded, and before it is answered, the advisor compiles
+    the new head, so the editor's next selection reads the write (read-your-writes for the rare edits; a
+    stream of feedback reports does not wait: docs/service.md, "Consistency")."""
+    yield token
+    request.app.state.advisor.sync()
+
+
 KGDep = Annotated[KnowledgeGraph, Depends(get_kg)]
 AdvisorDep = Annotated[Advisor, Depends(get_advisor)]
 SettingsDep = Annotated[Settings, Depends(get_settings)]
 SessionsDep = Annotated[SessionStore, Depends(get_sessions)]
 ReporterDep = Annotated[Token, Depends(require("reporter", "reporting feedback"))]
-EditorDep = Annotated[Token, Depends(require("editor", "this write"))]
+EditorDep = Annotated[Token, Depends(editor_write, scope="function")]
 IfMatchDep = Annotated[int | None, Depends(expected_version)]

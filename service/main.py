@@ -72,7 +72,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.tokens = TokenBook(settings.parsed_tokens().values())
         app.state.metrics = metrics
         app.state.kg = kg = open_graph(core.store, settings=core)
-        app.state.advisor = Advisor(kg)
+        app.state.advisor = advisor = Advisor(kg, background=settings.background_compile)
         app.state.sessions = SessionStore(
             ttl_s=settings.session_ttl_s, max_sessions=settings.max_sessions, memory_bytes=settings.session_memory_bytes
         )
@@ -87,6 +87,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             yield
         finally:
             app.state.queries.close()
+            app.state.reports.close()
+            advisor.close()
             kg.close()
 
     app = FastAPI(title="nFEX", version=__version__, summary="Which feature extractor to run, with which parameters, and why.",
