@@ -9,6 +9,7 @@ from fastapi import Depends, Header, Request
 
 from nfex_core.advisor import Advisor
 from nfex_core.errors import BadInput
+from nfex_core.feedback import ReportWriter
 from nfex_core.kg import KnowledgeGraph
 
 from .config import Settings, Token
@@ -26,6 +27,10 @@ def get_advisor(request: Request) -> Advisor:
 
 def get_settings(request: Request) -> Settings:
     return request.app.state.settings
+
+
+def get_reports(request: Request) -> ReportWriter:
+    return request.app.state.reports
 
 
 def get_sessions(request: Request) -> SessionStore:
@@ -56,6 +61,7 @@ def editor_write(request: Request, token: Annotated[Token, Depends(require("edit
 KGDep = Annotated[KnowledgeGraph, Depends(get_kg)]
 AdvisorDep = Annotated[Advisor, Depends(get_advisor)]
 SettingsDep = Annotated[Settings, Depends(get_settings)]
+ReportsDep = Annotated[ReportWriter, Depends(get_reports)]
 SessionsDep = Annotated[SessionStore, Depends(get_sessions)]
 ReporterDep = Annotated[Token, Depends(require("reporter", "reporting feedback"))]
 EditorDep = Annotated[Token, Depends(editor_write, scope="function")]

@@ -13,7 +13,8 @@ TRACKING_LOSS_RULE = "https://w3id.org/nfex#rule_measured_tracking_loss"  # rule
 
 
 def pruned(service: Service, context: dict[str, str]) -> dict[str, list[dict]]:  # type: ignore[type-arg]
-    sel = httpx.post(service.url + "/v1/select", json={"context": context}).json()
+    """What a select that waits for the reports just made prunes (``?consistency=latest``: read-your-writes)."""
+    sel = httpx.post(service.url + "/v1/select", params={"consistency": "latest"}, json={"context": context}).json()
     return {p["extractor"]: p["because"] for p in sel["pruned"]}
 
 
