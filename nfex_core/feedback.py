@@ -13,8 +13,11 @@ Reports arrive as a stream (a fleet reports per window), so ``ReportWriter`` com
 together as one transaction (group commit, kg/batch.py): one head read, one presence check, one SHACL
 validation of the touched nodes and one new graph version — hence one rule-table recompile — per batch
 instead of per report. A report whose own input is bad (unknown name, bad window) fails alone before the
-commit; when SHACL rejects the batch, its reports are committed one by one so that only the offending
-report fails, with its own report (rare: the request schema and ``measurement_graph`` catch nearly all).
+commit. The batch is committed optimistically, as one change; when SHACL rejects it (rare: the request
+schema and ``measurement_graph`` catch nearly all bad reports), each report is checked alone
+(``KnowledgeGraph.check``, nothing written), the offenders fail with their own validation report and the
+rest are committed together again (one by one, should they conform alone but not together). Checking
+every report before every commit would pay N validations per batch to save work only in that rare case.
 """
 from __future__ import annotations
 
@@ -192,20 +195,36 @@ class ReportWriter:
         if not good:
             return out
         try:
-            result = self._commit_graphs([reports[i] for i, _ in good], [g for _, (g, _) in good])
-            for i, (g, iri) in good:
-                out[i] = Written(iri, CommitResult(result.version, result.changed, added=len(g)))
+            self._commit_together(reports, good, out)
         except ValidationFailed as e:
             if len(good) == 1:
                 out[good[0][0]] = e
                 return out
-            for i, (g, iri) in good:  # find the offender: each alone (a report of a run created by one that fails
-                try:  # is committed with the run's triples again: they are its own)
-                    alone = self._commit_graphs([reports[i]], [g])
-                    out[i] = Written(iri, CommitResult(alone.version, alone.changed, added=len(g)))
-                except NfexError as err:
-                    out[i] = err
+            # find the offenders: each report checked alone (no write), the others committed together again
+            passing = []
+            for i, (g, iri) in good:
+                report = self.kg.check(ChangeSet.adding(graph_triples(g)))
+                if report.conforms:
+                    passing.append((i, (g, iri)))
+                else:
+                    out[i] = ValidationFailed(report.violations, report.text, current_version=self.kg.version)
+            try:
+                self._commit_together(reports, passing, out)
+            except ValidationFailed:  # reports that conform alone but not together: one commit each
+                for i, (g, iri) in passing:
+                    try:
+                        self._commit_together(reports, [(i, (g, iri))], out)
+                    except NfexError as err:
+                        out[i] = err
         return out
+
+    def _commit_together(self, reports: Sequence[Feedback], items: Sequence[tuple[int, tuple[rdflib.Graph, URIRef]]],
+                         out: list[Written | BaseException]) -> None:
+        if not items:
+            return
+        result = self._commit_graphs([reports[i] for i, _ in items], [g for _, (g, _) in items])
+        for i, (g, iri) in items:
+            out[i] = Written(iri, CommitResult(result.version, result.changed, added=len(g)))
 
     def _commit_graphs(self, reports: Sequence[Feedback], graphs: Sequence[rdflib.Graph]) -> CommitResult:
         triples: set[Any] = set()
