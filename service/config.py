@@ -15,6 +15,9 @@
 | NFEX_MAX_SESSIONS          | sessions held at once (429 above)                                  | 256       |
 | NFEX_SESSION_MEMORY_BYTES  | memory all sessions' previous frames may hold (LRU eviction)       | 512 MiB   |
 | NFEX_LOG_JSON              | one JSON object per log line                                       | true      |
+| NFEX_BACKGROUND_COMPILE    | a stale rule table answers while the next compiles in the background (false: a select after a commit waits for it) | true |
+| NFEX_FEEDBACK_BATCH        | most reports committed together in one transaction (1: one commit per report) | 64 |
+| NFEX_FEEDBACK_WINDOW_MS    | how long the first report of a batch waits for others              | 20 ms     |
 """
 from __future__ import annotations
 
@@ -55,6 +58,9 @@ class Settings(BaseSettings):
     session_ttl_s: float = 300.0
     max_sessions: int = 256
     session_memory_bytes: int = 512 * 1024 * 1024
+    background_compile: bool = True
+    feedback_batch: int = 64
+    feedback_window_ms: float = 20.0
 
     def core(self) -> CoreSettings:
         core = CoreSettings.from_env()

@@ -2,12 +2,14 @@
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
 from typing import Annotated
 
 from fastapi import Depends, Header, Request
 
 from nfex_core.advisor import Advisor
 from nfex_core.errors import BadInput
+from nfex_core.feedback import ReportWriter
 from nfex_core.kg import KnowledgeGraph
 
 from .config import Settings, Token
@@ -27,6 +29,10 @@ def get_settings(request: Request) -> Settings:
     return request.app.state.settings
 
 
+def get_reports(request: Request) -> ReportWriter:
+    return request.app.state.reports
+
+
 def get_sessions(request: Request) -> SessionStore:
     return request.app.state.sessions
 
@@ -44,10 +50,19 @@ def expected_version(if_match: Annotated[str | None, Header(alias="If-Match")] =
     return int(m.group(1))
 
 
+def editor_write(request: Request, token: Annotated[Token, Depends(require("editor", "this write"))]) -> Iterator[Token]:
+    """The editor's token for a write; once the write succeeded, and before it is answered, the advisor compiles
+    the new head, so the editor's next selection reads the write (read-your-writes for the rare edits; a
+    stream of feedback reports does not wait: docs/service.md, "Consistency")."""
+    yield token
+    request.app.state.advisor.sync()
+
+
 KGDep = Annotated[KnowledgeGraph, Depends(get_kg)]
 AdvisorDep = Annotated[Advisor, Depends(get_advisor)]
 SettingsDep = Annotated[Settings, Depends(get_settings)]
+ReportsDep = Annotated[ReportWriter, Depends(get_reports)]
 SessionsDep = Annotated[SessionStore, Depends(get_sessions)]
 ReporterDep = Annotated[Token, Depends(require("reporter", "reporting feedback"))]
-EditorDep = Annotated[Token, Depends(require("editor", "this write"))]
+EditorDep = Annotated[Token, Depends(editor_write, scope="function")]
 IfMatchDep = Annotated[int | None, Depends(expected_version)]

@@ -11,6 +11,7 @@ from fastapi import FastAPI
 
 from nfex_core import __version__
 from nfex_core.advisor import Advisor
+from nfex_core.feedback import ReportWriter
 from nfex_core.knowledge import open_graph
 
 from . import openapi, problems
@@ -72,7 +73,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.tokens = TokenBook(settings.parsed_tokens().values())
         app.state.metrics = metrics
         app.state.kg = kg = open_graph(core.store, settings=core)
-        app.state.advisor = Advisor(kg)
+        app.state.advisor = advisor = Advisor(kg, background=settings.background_compile)
+        app.state.reports = ReportWriter(kg, max_items=max(1, settings.feedback_batch),
+                                         window_s=max(0.0, settings.feedback_window_ms) / 1000)
         app.state.sessions = SessionStore(
             ttl_s=settings.session_ttl_s, max_sessions=settings.max_sessions, memory_bytes=settings.session_memory_bytes
         )
@@ -87,6 +90,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             yield
         finally:
             app.state.queries.close()
+            app.state.reports.close()
+            advisor.close()
             kg.close()
 
     app = FastAPI(title="nFEX", version=__version__, summary="Which feature extractor to run, with which parameters, and why.",

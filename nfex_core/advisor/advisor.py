@@ -13,12 +13,15 @@
                     ─► Selection   {α*, Θ′, scores, pruned + reasons, context, versions, timings} (selection.py)
 
 It holds a snapshot — graph version, vocabulary, compiled rule table, extractor registry — and rebuilds
-it when a commit moves the graph version: at once for commits made through the same KnowledgeGraph,
-otherwise at the next check (``poll_interval_s``; a shared remote store is polled).
+it when a commit moves the graph version: commits made through the same KnowledgeGraph are told at once,
+others are seen at the next check (``poll_interval_s``; a shared remote store is polled). With
+``background=True`` (the service) a stale snapshot answers while the next compiles on one background
+thread, and each Selection says how stale it is; otherwise (the default: CLI, evaluations) a selection
+after a commit waits for the new compile. ``snapshot(wait=True)``/``sync()`` ask for the head explicitly
+(snapshots.py has the design and the staleness bound).
 """
 from __future__ import annotations
 
-import threading
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
@@ -39,9 +42,12 @@ from .conditions import Conditions, read_conditions
 from .params import Parameters, parameters
 from .scoring import SCORE_PIXELS, FrameState, Scored, Scorer, by_network, prior_scores
 from .selection import CandidateScore, PrunedCandidate, Selection
+from .snapshots import Snapshots
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
+
+CONSISTENCY = ("snapshot", "latest")
 
 
 @dataclass
@@ -71,7 +77,9 @@ class Advisor:
     ``score_pixels``: F_metrics is measured on a copy of the frame of about this many pixels (QVGA);
     ``score_threads``: candidates extracted side by side (default: the settings', else the CPU count);
     ``scope``: the evidence the advisor may read (kg.scope): the graph is read through it, and a model
-    trained on a held-out sequence is not used."""
+    trained on a held-out sequence is not used.
+    ``background``: compile new graph versions on a background thread while the last snapshot answers
+    (snapshots.py); off, a selection after a commit waits for its compile (read-your-writes)."""
 
     def __init__(
         self,
@@ -83,6 +91,7 @@ class Advisor:
         models: Path | str | None = None,
         score_threads: int | None = None,
         scope: EvidenceScope | None = None,
+        background: bool = False,
     ) -> None:
         settings = kg.settings
         self.scope = scope or EvidenceScope()
@@ -92,46 +101,46 @@ class Advisor:
         self.neural = ModelHolder(models or settings.models, neural or settings.neural, held_out=self.scope.exclude_sequences)
         self.engine = RuleEngine(kg)
         self.scorer = Scorer(score_pixels, score_threads or settings.score_threads_or_cpus)
-        self.poll_interval_s = poll_interval_s
-        self._snapshot: Snapshot | None = None
-        self._dirty = True
-        self._lock = threading.Lock()
-        kg.on_commit(lambda _version: self.invalidate())
+        self.snapshots: Snapshots[Snapshot] = Snapshots(self._build, lambda: self.kg.version,
+                                                        poll_interval_s=poll_interval_s, background=background)
+        kg.on_commit(self.snapshots.learn)
 
     @property
     def score_pixels(self) -> int:
         return self.scorer.score_pixels
 
+    @property
+    def poll_interval_s(self) -> float:
+        return self.snapshots.poll_interval_s
+
     # ------------------------------------------------------------------ snapshot
     def invalidate(self) -> None:
-        self._dirty = True
+        """Forget when the head was last read: the next ``snapshot()`` reads it."""
+        self.snapshots.learn(-1, now=float("-inf"))
 
     def current_snapshot(self) -> Snapshot | None:
         """The snapshot built last (None before the first), without checking the graph version: for
         reporting (``/readyz``); ``snapshot()`` is what a selection uses."""
-        return self._snapshot
+        return self.snapshots.current
 
     def is_fresh(self) -> bool:
         """Whether ``select`` will answer from the current snapshot without a store round trip or a rule
-        compilation (the service then runs a context-only request on its event loop)."""
-        snap = self._snapshot
-        return snap is not None and not self._dirty and time.monotonic() - snap.taken_at < self.poll_interval_s
+        compilation (the service then runs a context-only request on its event loop). In background mode a
+        stale snapshot is fresh in this sense: its successor compiles elsewhere."""
+        return self.snapshots.is_fresh()
 
-    def snapshot(self) -> Snapshot:
-        snap = self._snapshot
-        if snap is not None and self.is_fresh():
-            return snap
-        with self._lock:
-            snap = self._snapshot
-            if snap is not None and self.is_fresh():
-                return snap
-            self._dirty = False
-            version = self.kg.version
-            if snap is not None and snap.version == version:
-                snap.taken_at = time.monotonic()
-                return snap
-            self._snapshot = snap = self._build()
-            return snap
+    def snapshot(self, wait: bool = False) -> Snapshot:
+        """The snapshot a selection answers from; ``wait``: of the store's head version (read-your-writes)."""
+        return self.snapshots.get(wait)
+
+    def sync(self) -> Snapshot:
+        """Wait for (or make) the snapshot of the store's head version: after a write whose effect the caller
+        must see in its next selection."""
+        return self.snapshots.sync()
+
+    def close(self) -> None:
+        """Stop background compiles (waits for the running one); call before closing the store."""
+        self.snapshots.close()
 
     def _build(self) -> Snapshot:
         vocab = self.kg.vocabulary()
@@ -151,12 +160,17 @@ class Advisor:
         budget_ms: float | None = None,
         compute: str | None = None,
         frame_size: tuple[int, int] | None = None,
+        consistency: str = "snapshot",
     ) -> Selection:
         """The flow for one request. ``budget_ms`` (per-frame extraction time the client can afford) and
         ``compute`` (a compute class of the graph) may also come as context keys of those names;
-        ``frame_size`` (W, H) sizes the cost check when no frame is sent."""
+        ``frame_size`` (W, H) sizes the cost check when no frame is sent. ``consistency``: ``snapshot``
+        answers from the current snapshot (stale by at most the bound of snapshots.py in background mode),
+        ``latest`` from the store's head version (it waits for that compile)."""
+        if consistency not in CONSISTENCY:
+            raise BadInput(f"consistency must be one of {', '.join(CONSISTENCY)}, got {consistency!r}")
         laps = _Laps()
-        snap = self.snapshot()
+        snap = self.snapshot(wait=consistency == "latest")
         ctx = dict(context or {})
         budget_ms = budget_number(ctx.pop("budget_ms", None) if budget_ms is None else budget_ms)
         compute = compute or ctx.pop("compute", None)
@@ -231,6 +245,7 @@ class Advisor:
                 pruned.pop(x, None)
             pruned.update({x: cs for x, cs in outcome.pruned.items() if x != best.extractor})
         spec = snap.vocab.extractor(best.extractor)
+        head, stale_ms = self.snapshots.staleness(snap)
         timings["total"] = sum(timings.values())
         return Selection(
             extractor=best.extractor,
@@ -240,7 +255,7 @@ class Advisor:
             pruned=tuple(PrunedCandidate(x, cs) for x, cs in sorted(pruned.items())),
             context=cond.entries,
             weights=dict(decision.weights),
-            versions={"graph": snap.version, "programs": snap.programs, "rules": len(snap.table.rules), "model": nn.info},
+            versions={"graph": snap.version, "graph_head": head, "stale_ms": stale_ms, "programs": snap.programs, "rules": len(snap.table.rules), "model": nn.info},
             timings_ms=timings,
             opencv=spec.opencv(best.params),
             state=scored.state,

@@ -3,7 +3,6 @@ token); it steers selections once corroborated by ``nfex:minSources`` reporters 
 from __future__ import annotations
 
 import re
-from datetime import UTC, datetime
 from typing import Any
 
 from fastapi import APIRouter, Path, Query
@@ -11,10 +10,10 @@ from fastapi.responses import JSONResponse
 
 from nfex_core.errors import NotFound
 from nfex_core.evidence import TrustPolicy, admit, read_observations
-from nfex_core.feedback import Feedback, acceptance_graph, feedback_run_iri, measurement_graph
+from nfex_core.feedback import Feedback, acceptance_graph
 from nfex_core.namespaces import NFEX
 
-from ..deps import EditorDep, IfMatchDep, KGDep, ReporterDep, SessionsDep
+from ..deps import EditorDep, IfMatchDep, KGDep, ReporterDep, ReportsDep, SessionsDep
 from ..schemas import PROBLEM_RESPONSES, FeedbackRequest, ReportList, WriteResult
 
 router = APIRouter(prefix="/v1", tags=["feedback"], responses=PROBLEM_RESPONSES)
@@ -28,11 +27,14 @@ REPORT_ID = re.compile(r"^measurement_[0-9a-f]{32}$")
     description="Stored as a SHACL-checked nfex:Measurement with PROV provenance, attributed to the token's "
     "holder (prov:wasAttributedTo). It is a *report*: it steers selections (measured rules, measured Θ′, "
     "measured accuracy, cost model) once nfex:minSources distinct reporters reported the same configuration "
-    "under the same conditions, or an editor accepted it (POST /v1/feedback/{id}/accept). Needs the reporter role.",
+    "under the same conditions, or an editor accepted it (POST /v1/feedback/{id}/accept). Needs the reporter role. "
+    "Reports arriving together are committed as one graph version (group commit); each is answered once its batch "
+    "is committed, with its own IRI. A selection may answer from the previous version until the new one is "
+    "compiled (`versions.stale_ms`); `POST /v1/select?consistency=latest` waits for it.",
     response_model=WriteResult,
     responses=PROBLEM_RESPONSES,
 )
-def feedback(body: FeedbackRequest, kg: KGDep, sessions: SessionsDep, token: ReporterDep) -> JSONResponse:
+def feedback(body: FeedbackRequest, writer: ReportsDep, sessions: SessionsDep, token: ReporterDep) -> JSONResponse:
     context = {k: v for k, v in body.context.items() if v is not None}
     client = body.client
     if body.session_id:
@@ -41,12 +43,8 @@ def feedback(body: FeedbackRequest, kg: KGDep, sessions: SessionsDep, token: Rep
         client = client or session.client
     fb = Feedback(**{**body.model_dump(exclude={"session_id", "context", "client"}), "context": context,
                      "client": client, "session": body.session_id, "reporter": token.name})
-    vocab = kg.vocabulary()
-    now = datetime.now(UTC)
-    run_exists = kg.ask(f"ASK {{ <{feedback_run_iri(fb, now)}> a nfex:Run }}")
-    graph, iri = measurement_graph(vocab, fb, run_exists=run_exists, now=now)
-    result = kg.add(graph, author=token.name, message=f"feedback: {fb.extractor} on {fb.sequence}")
-    return WriteResult.of(result, iri=str(iri)).response(status=201)
+    written = writer.write(fb)  # committed with the reports that arrived with it (nfex_core.feedback.ReportWriter)
+    return WriteResult.of(written.result, iri=str(written.iri)).response(status=201)
 
 
 @router.get("/feedback", summary="Client reports and whether each steers selections yet (and why, or why not)",

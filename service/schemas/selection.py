@@ -135,7 +135,12 @@ class ModelInfo(Out):
 
 
 class Versions(Out):
-    graph: int
+    graph: int = Field(..., description="The graph version whose compiled snapshot answered.")
+    graph_head: int = Field(..., description="The newest graph version this process knows of (commits through it are "
+                            "known at once, a shared store's at the next poll).")
+    stale_ms: float = Field(..., description="How long a version newer than `graph` has been waiting for its compile, ms; "
+                            "0 when fresh. Bounded by one compile time after the last commit (plus the poll interval for "
+                            "a shared store); `?consistency=latest` waits for the head instead.")
     programs: dict[str, int] = Field(..., description="DSL program → statements in force.")
     rules: int
     model: ModelInfo

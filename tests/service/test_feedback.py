@@ -13,7 +13,8 @@ TRACKING_LOSS_RULE = "https://w3id.org/nfex#rule_measured_tracking_loss"  # rule
 
 
 def pruned(service: Service, context: dict[str, str]) -> dict[str, list[dict]]:  # type: ignore[type-arg]
-    sel = httpx.post(service.url + "/v1/select", json={"context": context}).json()
+    """What a select that waits for the reports just made prunes (``?consistency=latest``: read-your-writes)."""
+    sel = httpx.post(service.url + "/v1/select", params={"consistency": "latest"}, json={"context": context}).json()
     return {p["extractor"]: p["because"] for p in sel["pruned"]}
 
 
@@ -116,3 +117,44 @@ def test_feedback_and_a_sweep_on_one_sequence_share_its_node(kg) -> None:  # typ
     assert set(g.objects(m, NFEX.sequence)) == swept and len(swept) == 1
     [seq] = swept
     assert str(g.value(seq, RDFS.label)) == "kitti 01" and g.value(seq, NFEX.inDataset) == NFEX["dataset_kitti"]
+
+
+def _post(service: Service, token: str, body: dict) -> httpx.Response:  # type: ignore[type-arg]
+    return httpx.post(service.url + "/v1/feedback", headers=auth(token), json=body, timeout=60)
+
+
+def test_concurrent_reports_share_commits_and_a_bad_one_fails_alone(service: Service) -> None:
+    """Group commit: twelve reports posted at once are committed in fewer graph versions than reports, each
+    answered with its own Measurement; the one naming an unknown extractor gets its own 422, not its neighbours."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    before = service.version()
+    bodies = [{"extractor": "ORB", "context": {"agent": "drone"}, "sequence": "pytest/fleet", "window_start": 10 * i,
+               "window_end": 10 * i + 10, "ate_rmse": 0.4 + i / 100} for i in range(12)]
+    bodies[5] = {**bodies[5], "extractor": "FAST9"}
+    tokens = list(REPORTERS.values())
+    with ThreadPoolExecutor(12) as pool:
+        answers = list(pool.map(lambda ib: _post(service, tokens[ib[0] % 3], ib[1]), enumerate(bodies)))
+    doc = assert_problem(answers[5], 422)
+    assert "FAST9" in doc["detail"]
+    good = [r for i, r in enumerate(answers) if i != 5]
+    assert all(r.status_code == 201 for r in good), [r.text for r in good]
+    assert len({r.json()["iri"] for r in good}) == 11
+    committed = service.version() - before
+    assert 1 <= committed < 11, f"{committed} graph versions for 11 reports"
+    assert max(r.json()["version"] for r in good) == service.version()  # each answered after its batch committed
+
+
+def test_a_select_that_asks_for_the_latest_version_reads_the_reports_just_made(service: Service) -> None:
+    """Read-your-writes where the design promises it: ``?consistency=latest`` answers from the head's compile."""
+    r = _post(service, REPORTERS["dave"], {"extractor": "BRISK", "context": {"motion": "slow"}, "sequence": "pytest/ryw",
+                                           "window_start": 0, "window_end": 20, "ate_rmse": 0.3})
+    assert r.status_code == 201, r.text
+    version = r.json()["version"]
+    sel = httpx.post(service.url + "/v1/select", params={"consistency": "latest"}, json={"context": {"motion": "slow"}},
+                     timeout=60).json()
+    assert sel["versions"]["graph"] >= version and sel["versions"]["stale_ms"] == 0
+    assert sel["versions"]["graph_head"] == sel["versions"]["graph"]
+    quick = httpx.post(service.url + "/v1/select", json={"context": {"motion": "slow"}}).json()  # never waits
+    assert quick["versions"]["graph_head"] >= version and quick["versions"]["graph"] <= quick["versions"]["graph_head"]
+    assert_problem(httpx.post(service.url + "/v1/select", params={"consistency": "eventual"}, json={"context": {}}), 422)

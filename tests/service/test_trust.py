@@ -35,7 +35,7 @@ def svc(seeded_template: Path, tmp_path_factory: pytest.TempPathFactory) -> Iter
 
 
 def select(svc: Service, context: dict[str, str]) -> dict[str, Any]:
-    r = httpx.post(svc.url + "/v1/select", json={"context": context})
+    r = httpx.post(svc.url + "/v1/select", params={"consistency": "latest"}, json={"context": context})  # sees the reports
     assert r.status_code == 200, r.text
     return r.json()  # type: ignore[no-any-return]
 

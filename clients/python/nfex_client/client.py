@@ -50,11 +50,13 @@ class _Requests:
     """Request builders: one per endpoint."""
 
     @staticmethod
-    def select(context: Context | None, frame: Any) -> Call:
+    def select(context: Context | None, frame: Any, consistency: str = "snapshot") -> Call:
+        params = {"params": {"consistency": consistency}} if consistency != "snapshot" else {}
         if frame is None:
-            return Call("POST", "/v1/select", {"json": {"context": dict(context or {})}})
+            return Call("POST", "/v1/select", {"json": {"context": dict(context or {})}, **params})
         data, media = _frame_bytes(frame)
-        return Call("POST", "/v1/select", {"files": {"frame": ("frame", data, media)}, "data": {"context": json.dumps(dict(context or {}))}})
+        return Call("POST", "/v1/select", {"files": {"frame": ("frame", data, media)}, "data": {"context": json.dumps(dict(context or {}))},
+                                           **params})
 
     @staticmethod
     def session_frame(session_id: str, frame: Any, context: Context | None) -> Call:
@@ -104,9 +106,11 @@ class NfexClient:
         return self._do(Call(method, path, kwargs))
 
     # -- selection and streams
-    def select(self, context: Context | None = None, frame: Any = None) -> Selection:
-        """α, Θ′ and why, for a context and optionally a frame (numpy array, or PNG/JPEG bytes)."""
-        return self._do(_Requests.select(context, frame))
+    def select(self, context: Context | None = None, frame: Any = None, consistency: str = "snapshot") -> Selection:
+        """α, Θ′ and why, for a context and optionally a frame (numpy array, or PNG/JPEG bytes). ``consistency``:
+        ``snapshot`` (the last compiled graph version answers at once) or ``latest`` (wait for the head's compile,
+        e.g. to see one's own feedback)."""
+        return self._do(_Requests.select(context, frame, consistency))
 
     def open_session(self, context: Context | None = None, client: str | None = None) -> Session:
         return self._json("POST", "/v1/sessions", json={"context": dict(context or {}), "client": client})
@@ -196,8 +200,8 @@ class AsyncNfexClient:
     async def _do(self, call: Call) -> Any:
         return _result(call, await self.http.request(call.method, call.path, **call.kwargs))
 
-    async def select(self, context: Context | None = None, frame: Any = None) -> Selection:
-        return await self._do(_Requests.select(context, frame))
+    async def select(self, context: Context | None = None, frame: Any = None, consistency: str = "snapshot") -> Selection:
+        return await self._do(_Requests.select(context, frame, consistency))
 
     async def open_session(self, context: Context | None = None, client: str | None = None) -> Session:
         return await self._do(Call("POST", "/v1/sessions", {"json": {"context": dict(context or {}), "client": client}}))

@@ -403,6 +403,8 @@ class VersionList(TypedDict):
 
 class Versions(TypedDict):
     graph: int
+    graph_head: int
+    stale_ms: float
     programs: dict[str, int]
     rules: int
     model: ModelInfo

@@ -1,0 +1,110 @@
+"""Group commit: writes that arrive together are handled by one call, so they share one transaction.
+
+Each commit pays a fixed price — reading the head, checking which triples are present, SHACL on the touched
+nodes, the guarded update, and, in the service, the rule table's recompile that every new version triggers.
+A fleet of clients reporting per window pays it per report; ``Batcher`` lets them pay it per batch:
+
+    submit(item) ─► queue ─► one flusher thread: waits until ``max_items`` are queued or ``window_s`` has
+                             passed since the oldest queued item arrived, then ``flush(items)`` ─► each
+                             ``submit`` returns its own result (or raises its own exception)
+
+A caller returns only after ``flush`` returned, i.e. after its batch is committed (durable). One flush
+runs at a time; items that arrive during a flush form the next batch (and, being older than the window by
+then, go at once), so under load batches grow by themselves and alone an item waits at most ``window_s``.
+What a batch means — one ``KnowledgeGraph.commit`` of the union, and what happens when it is rejected — is
+``flush``'s business (``nfex_core.feedback.ReportWriter``); this module only gathers and hands back.
+"""
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Generic, TypeVar
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+
+@dataclass
+class _Slot(Generic[T]):
+    item: T
+    arrived: float = field(default_factory=time.monotonic)
+    done: threading.Event = field(default_factory=threading.Event)
+    result: Any = None
+    error: BaseException | None = None
+
+
+class Batcher(Generic[T, R]):
+    """``flush(items)`` returns one result or exception per item, in order; ``max_items`` ≥ 1 bounds a batch
+    (1: every item alone), ``window_s`` ≥ 0 how long the oldest queued item waits for others."""
+
+    def __init__(self, flush: Callable[[Sequence[T]], Sequence[R | BaseException]], *, max_items: int = 64,
+                 window_s: float = 0.02, name: str = "nfex-batch") -> None:
+        if max_items < 1 or window_s < 0:
+            raise ValueError(f"a batch needs max_items >= 1 and window_s >= 0, got {max_items} and {window_s}")
+        self._flush = flush
+        self.max_items = max_items
+        self.window_s = window_s
+        self.name = name
+        self.batches = 0  # flushes so far, and the items they carried (for tests and /metrics)
+        self.items = 0
+        self._queue: list[_Slot[T]] = []
+        self._cond = threading.Condition()
+        self._worker: threading.Thread | None = None
+        self._closed = False
+
+    def submit(self, item: T) -> R:
+        """Queue ``item``, wait until its batch is flushed, and return its result (or raise its exception)."""
+        slot: _Slot[T] = _Slot(item)
+        with self._cond:
+            if self._closed:
+                raise RuntimeError(f"{self.name} is closed")
+            self._queue.append(slot)
+            self._cond.notify()
+            if self._worker is None:
+                self._worker = threading.Thread(target=self._run, name=self.name, daemon=True)
+                self._worker.start()
+        slot.done.wait()
+        if slot.error is not None:
+            raise slot.error
+        return slot.result
+
+    def _take(self) -> list[_Slot[T]]:
+        """The next batch (empty when none is queued: the flusher then ends)."""
+        with self._cond:
+            while self._queue and len(self._queue) < self.max_items:
+                left = self._queue[0].arrived + self.window_s - time.monotonic()
+                if left <= 0:
+                    break
+                self._cond.wait(left)
+            batch = self._queue[: self.max_items]
+            del self._queue[: self.max_items]
+            if not batch:
+                self._worker = None
+            return batch
+
+    def _run(self) -> None:
+        while batch := self._take():
+            try:
+                results = list(self._flush([s.item for s in batch]))
+                if len(results) != len(batch):
+                    raise RuntimeError(f"{self.name}: flush returned {len(results)} results for {len(batch)} items")
+            except BaseException as e:  # the whole batch failed (e.g. the store went away): every caller hears it
+                results = [e] * len(batch)
+            self.batches += 1
+            self.items += len(batch)
+            for slot, r in zip(batch, results, strict=True):
+                if isinstance(r, BaseException):
+                    slot.error = r
+                else:
+                    slot.result = r
+                slot.done.set()
+
+    def close(self, timeout: float = 30.0) -> None:
+        """Refuse new items; the queued ones are still flushed."""
+        with self._cond:
+            self._closed = True
+            worker = self._worker
+        if worker is not None:
+            worker.join(timeout)

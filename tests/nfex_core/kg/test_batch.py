@@ -1,0 +1,84 @@
+"""Group commit (nfex_core/kg/batch.py) and the feedback writer on it (nfex_core/feedback.py ReportWriter), on a
+real store: writes that arrive together share one graph version, each caller gets its own result, a bad
+report fails alone."""
+from __future__ import annotations
+
+import threading
+from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
+
+import pytest
+
+from nfex_core.errors import UnknownName, ValidationFailed
+from nfex_core.feedback import Feedback, ReportWriter, Written
+from nfex_core.kg import KnowledgeGraph
+from nfex_core.kg.batch import Batcher
+
+
+def test_items_queued_during_a_flush_form_one_batch_and_each_caller_gets_its_own_result() -> None:
+    gate = threading.Event()
+    first = threading.Event()
+    batches: list[list[int]] = []
+
+    def flush(items: Sequence[int]) -> list[int | BaseException]:
+        batches.append(list(items))
+        first.set()
+        assert gate.wait(10)
+        return [ValueError(f"bad {i}") if i == 13 else i * 10 for i in items]
+
+    batcher: Batcher[int, int] = Batcher(flush, max_items=64, window_s=0.0)
+    with ThreadPoolExecutor(12) as pool:
+        head = pool.submit(batcher.submit, 0)
+        assert first.wait(5)  # the first item is being flushed (held); these eleven queue meanwhile
+        rest = {i: pool.submit(batcher.submit, i) for i in range(10, 21)}
+        while len(batcher._queue) < 11:  # noqa: SLF001 - the test waits until all are queued
+            threading.Event().wait(0.005)
+        gate.set()
+        assert head.result(5) == 0
+        for i, f in rest.items():
+            if i == 13:
+                with pytest.raises(ValueError, match="bad 13"):
+                    f.result(5)
+            else:
+                assert f.result(5) == i * 10
+    assert batches == [[0], list(range(10, 21))] and batcher.batches == 2 and batcher.items == 12
+
+
+def test_a_batch_is_bounded_by_count() -> None:
+    seen: list[int] = []
+    batcher: Batcher[int, int] = Batcher(lambda items: (seen.append(len(items)), list(items))[1], max_items=3, window_s=0.5)
+    with ThreadPoolExecutor(7) as pool:
+        assert sorted(pool.map(batcher.submit, range(7))) == list(range(7))
+    assert max(seen) <= 3 and sum(seen) == 7
+
+
+def _report(i: int, **fields: object) -> Feedback:
+    return Feedback(**{"extractor": "ORB", "context": {"agent": "car"}, "sequence": "batch/test", "reporter": f"r{i % 3}",
+                       "window_start": 10 * i, "window_end": 10 * i + 10, "ate_rmse": 0.5 + i / 100, **fields})  # type: ignore[arg-type]
+
+
+def test_concurrent_reports_are_committed_in_fewer_versions_and_a_bad_one_fails_alone(kg: KnowledgeGraph) -> None:
+    writer = ReportWriter(kg, max_items=64, window_s=0.05)
+    v0 = kg.version
+    reports = [_report(i) for i in range(12)]
+    reports[4] = _report(4, frames=0)  # passes the Python checks, violates MeasurementShape (frameCount ≥ 1)
+    reports[7] = _report(7, extractor="FAST9")  # an unknown extractor: fails while its graph is built
+    with ThreadPoolExecutor(12) as pool:
+        futures = [pool.submit(writer.write, fb) for fb in reports]
+        outcomes: list[Written | BaseException] = []
+        for f in futures:
+            try:
+                outcomes.append(f.result(60))
+            except Exception as e:  # noqa: BLE001 - each report's own outcome is what is checked
+                outcomes.append(e)
+    writer.close()
+    assert isinstance(outcomes[4], ValidationFailed) and "frameCount" in str(outcomes[4])
+    assert isinstance(outcomes[7], UnknownName)
+    good = [o for i, o in enumerate(outcomes) if i not in (4, 7)]
+    assert all(isinstance(o, Written) for o in good)
+    iris = {o.iri for o in good if isinstance(o, Written)}
+    assert len(iris) == 10  # each report its own Measurement
+    versions = kg.version - v0
+    assert 1 <= versions < 10, f"{versions} versions for 10 committed reports"
+    for o in good:
+        assert isinstance(o, Written) and kg.ask(f"ASK {{ <{o.iri}> a nfex:Measurement }}")
