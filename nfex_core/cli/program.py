@@ -112,6 +112,7 @@ def learn_verification(
     out: Annotated[Path, typer.Option("--out", "-o", help="The program file to write.")] = Path("rules/programs/verification.nfex"),
     min_pairs: Annotated[int, typer.Option("--min-pairs", help="Pairs an agent needs for thresholds of its own.")] = 500,
     escalations: Annotated[int, typer.Option("--escalations", help="The prior N of `escalate at most N`.")] = 2,
+    max_extra_fallback: Annotated[float, typer.Option("--max-extra-fallback", help="Share of pairs the policy may coast on beyond those nothing survives.")] = 0.1,
 ) -> None:
     """Fit the verification program (accept pair if …, escalate at most N) to the sweeps' pair outcomes
     (nfex_core/sweeps/verification.py), check it against the graph and write it to OUT."""
@@ -125,11 +126,11 @@ def learn_verification(
     missing = [str(p) for p in pair_tables if not p.exists()]
     if missing:
         raise BadInput(f"no pair table beside the training table: {', '.join(missing)} (run `nfex sweep` with this --csv)")
-    text, report = learn(pair_tables, table, min_pairs=min_pairs, escalations=escalations)
+    text, report = learn(pair_tables, table, min_pairs=min_pairs, escalations=escalations, max_extra_fallback=max_extra_fallback)
     check_program(parse(text, source=str(out)), open_kg().vocabulary())
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(text)
-    typer.echo(table_of(["agent", "accept pair if", "J", "TPR", "FPR", "pairs", "good"],
-                        [[str(r["agent"]), str(r["tests"]), str(r["j"]), str(r["tpr"]), str(r["fpr"]), str(r["pairs"]), str(r["good"])]
+    typer.echo(table_of(["agent", "accept pair if", "mean pair error °", "accept all °", "fall back all °", "pairs", "accepted"],
+                        [[str(r[k]) for k in ("agent", "tests", "cost", "accept_all", "fall_back_all", "pairs", "accepted")]
                          for r in report]))
     typer.echo(f"wrote {out} ({len(report)} accept statements); apply it with `nfex program apply {out}`")

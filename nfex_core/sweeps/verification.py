@@ -1,25 +1,37 @@
 """Learn the verification program (``accept pair if …``, ``escalate at most N``) from the sweeps' pair tables.
 
-Input: the per-pair tables the sweeps write beside their training tables (``*-pairs.csv.gz``, ``table.py``) and
-those training tables (for each cell's agent). Accepting a pair's estimate is the alternative to falling back to
-the motion prior, so a pair is **good** — worth accepting — when its configuration estimated it (not lost, not
-rejected by the front-end checks) and the estimate is closer to the true motion than the motion prior is
-(rotation error + direction error, degrees, ``motion.pair_errors``); where there is no prior, when both its errors
-are ≤ ``BAD_PAIR_DEG`` (5°). Per pair the run-time signals of ``verification.py`` are rebuilt from the table:
+Input: the per-pair tables the sweeps write beside their training tables (``*-pairs.csv.gz``, ``table.py``; they
+carry each estimate and the true motion) and those training tables (for each cell's agent). Accepting a pair's
+estimate is the alternative to falling back to the motion prior, so each pair with a prior has two costs, in
+degrees of rotation + direction error against the true motion (``motion.pair_errors``):
 
-- the motion prior of a pair is the same cell's latest earlier pair that was estimated, not rejected and
-  translated (parallax ≥ ``STILL_PX``) — what the VO keeps as its prior while that configuration runs;
+    e_est   = the estimate's error (∞ where the pair was lost or rejected: it cannot be accepted),
+    e_prior = the error of repeating the motion prior,
+
+and a rule's cost over the pairs is the mean of e_est where it accepts and e_prior where it does not (errors
+capped at ``LOST_PAIR_DEG``). Per pair the run-time signals of ``verification.py`` are rebuilt from the table:
+
+- the motion prior of a pair is the same cell's latest earlier pair that translated (parallax ≥ ``STILL_PX``)
+  and whose estimate was right (rotation + direction error ≤ 2·``BAD_PAIR_DEG``) — what a verifier should have
+  accepted, standing in for the last accepted step the VO keeps as its prior;
   ``rotation_change`` and ``heading_change`` are measured against it;
-- ``agreement``: the least disagreement with the estimate of another *extractor* on the same frame pair of the
-  same sequence, condition (corruption or schedule), severity and seed.
+- ``agreement``: the least disagreement with the estimates of the other extractors the loop would escalate to —
+  the N (``escalate at most N``) with the lowest mean pair error in the tables, one configuration each — on the
+  same frame pair of the same sequence, condition, severity and seed.
 
-For each agent with at least ``min_pairs`` pairs (else all agents pooled), two accept statements are fitted:
+For each agent with at least ``min_pairs`` pairs (else all agents pooled), the policy is run over the pairs
+(``simulate``: each configuration's consecutive pairs in order, the prior being the last *accepted* step, a
+fallback keeping it, as in the loop) for every combination of
 
-1. motion consistency: ``heading_change <= a and rotation_change <= b``; (a, b) on the grid of the signals'
-   quantiles (5 %, 10 %, …, 95 %) maximising Youden's J = TPR − FPR of "accepted ⇒ good";
-2. agreement: ``agreement <= c``, c maximising J the same way.
+1. a motion-consistency rule ``heading_change <= a and rotation_change <= b`` (or none), and
+2. an agreement rule ``agreement <= c`` (or none) — a second candidate's estimate of the same pair agreeing,
 
-Every threshold is printed with its J, TPR, FPR and pair count, and written into each statement's reason, so a
+a, b, c on the deciles of their signals, and the combination with the least mean pair error whose extra fallbacks
+stay within ``MAX_EXTRA_FALLBACK`` of the pairs is written. The
+signals' grid is read against a stand-in prior (the same cell's last right estimate).
+
+Every threshold is printed with its cost, the costs of always accepting and of always falling back, and the
+pair count, and written into each statement's reason, so a
 selection that cites the statement says what it was learned from. ``escalate at most N`` is a prior (the cost of
 a pair is then at most 1 + N extractions), written as such.
 """
@@ -35,22 +47,24 @@ from pathlib import Path
 
 import numpy as np
 
+from ..evaluation.oracle import LOST_PAIR_DEG
 from ..motion import angle_between, rotation_deg
 from ..verification import STILL_PX
 from .cells import BAD_PAIR_DEG
 from .table import read_pairs
 
-QUANTILES = np.arange(0.05, 0.96, 0.05)
+QUANTILES = np.arange(0.1, 0.91, 0.1)
+MAX_EXTRA_FALLBACK = 0.1  # a policy may coast on at most this share of pairs beyond those nothing survives
 
 
 @dataclass(frozen=True)
 class Fitted:
     signals: tuple[tuple[str, float], ...]  # (signal, threshold) tested with <=
-    j: float
-    tpr: float
-    fpr: float
+    cost: float  # mean pair error (degrees) of the rule's choices
+    accept_all: float  # … of taking every estimate that passed the checks
+    fall_back_all: float  # … of always repeating the motion prior
     pairs: int
-    good: int
+    accepted: int
 
 
 @dataclass
@@ -59,7 +73,10 @@ class _Pair:
     extractor: str
     cell: str
     frame: int
-    good: bool
+    est_err: float  # e_est (module docstring); inf where the pair cannot be accepted
+    prior_err: float | None  # e_prior against the stand-in prior (the signals' grid); None without one
+    truth: tuple[np.ndarray, np.ndarray] | None  # the true (R, d) of the pair
+    run: tuple[str, str]  # (cell, window start): one configuration's consecutive pairs
     R: np.ndarray | None
     d: np.ndarray | None
     parallax: float
@@ -73,18 +90,22 @@ def _rotation(rx: str, ry: str, rz: str) -> np.ndarray:
     return np.asarray(R, dtype=float)
 
 
-def _better_than_prior(r: Mapping[str, str], errors: Sequence[float], prior: tuple[np.ndarray, np.ndarray] | None) -> bool:
-    """The label: the estimate is closer to the truth than the motion prior it would replace (rotation + direction
-    error, degrees); without a prior (or without the true motion in the table), its errors are both ≤ 5°."""
-    if not errors:
-        return False
+def _truth(r: Mapping[str, str]) -> tuple[np.ndarray, np.ndarray] | None:
     truth = [r.get(k, "") for k in ("true_rx", "true_ry", "true_rz", "true_dx", "true_dy", "true_dz")]
-    if prior is None or "" in truth:
-        return max(errors) <= BAD_PAIR_DEG
-    R_true = _rotation(*truth[:3])
-    d_true = np.array([float(v) for v in truth[3:]])
-    coasting = rotation_deg(R_true.T @ prior[0]) + angle_between(prior[1], d_true)
-    return sum(errors) < coasting
+    if "" in truth:
+        return None
+    return _rotation(*truth[:3]), np.array([float(v) for v in truth[3:]])
+
+
+def _coasting(truth: tuple[np.ndarray, np.ndarray], prior: tuple[np.ndarray, np.ndarray]) -> float:
+    """The error of repeating the prior's motion (R_p, d_p) on a pair whose true motion is ``truth``."""
+    return min(rotation_deg(truth[0].T @ prior[0]) + angle_between(prior[1], truth[1]), LOST_PAIR_DEG)
+
+
+def _prior_error(r: Mapping[str, str], prior: tuple[np.ndarray, np.ndarray] | None) -> float | None:
+    """e_prior against a stand-in prior; None without prior or truth."""
+    truth = _truth(r)
+    return _coasting(truth, prior) if truth is not None and prior is not None else None
 
 
 def _agents(tables: Iterable[Path]) -> dict[str, str]:
@@ -96,7 +117,7 @@ def _agents(tables: Iterable[Path]) -> dict[str, str]:
     return out
 
 
-def read(pair_tables: Sequence[Path], tables: Sequence[Path]) -> dict[str, list[_Pair]]:
+def read(pair_tables: Sequence[Path], tables: Sequence[Path], escalations: int = 2) -> dict[str, list[_Pair]]:
     """Agent → its pairs with their signals (module docstring)."""
     agents = _agents(tables)
     by_cell: dict[str, list[dict[str, str]]] = defaultdict(list)
@@ -115,7 +136,8 @@ def read(pair_tables: Sequence[Path], tables: Sequence[Path]) -> dict[str, list[
             R = _rotation(r["rx"], r["ry"], r["rz"]) if r["rx"] != "" else None
             d = np.array([float(r["dx"]), float(r["dy"]), float(r["dz"])]) if r["dx"] != "" else None
             errs = (r["rotation_error_deg"], r["direction_error_deg"])
-            good = estimated and "" not in errs and _better_than_prior(r, [float(e) for e in errs] if "" not in errs else [], prior)
+            est_err = min(sum(float(e) for e in errs), LOST_PAIR_DEG) if estimated and "" not in errs else math.inf
+            prior_err = _prior_error(r, prior)
             parallax = float(r["parallax_px"] or 0)
             sig: dict[str, float] = {}
             if estimated and R is not None and d is not None and prior is not None:
@@ -123,19 +145,28 @@ def read(pair_tables: Sequence[Path], tables: Sequence[Path]) -> dict[str, list[
                 sig["heading_change"] = angle_between(prior[0] @ prior[1], d)
             condition = f"{r['before']}→{r['after']}"  # the images' conditions: equal keys are equal images
             key = (r["dataset"], r["sequence"], condition, r["severity"], r["seed"], r["window_start"], r["frame"])
-            p = _Pair(key, r["extractor"], cell, int(r["frame"]), good, R if estimated else None, d if estimated else None, parallax, sig)
+            truth = _truth(r)
+            p = _Pair(key, r["extractor"], cell, int(r["frame"]), est_err, prior_err, truth, (cell, r["window_start"]), R if estimated else None, d if estimated else None, parallax, sig)
             pairs.append((agents.get(cell, ""), p))
-            if estimated and R is not None and d is not None and parallax >= STILL_PX:
-                prior = (R, d)
+            if math.isfinite(est_err) and est_err <= 2 * BAD_PAIR_DEG and R is not None and d is not None and parallax >= STILL_PX:
+                prior = (R, d)  # what a verifier should have accepted (module docstring)
+    # the loop escalates to at most N other extractors, best first: agreement is with those, one estimate each
+    errors: dict[str, list[float]] = defaultdict(list)
+    for _, p in pairs:
+        errors[p.extractor].append(min(p.est_err, LOST_PAIR_DEG))
+    order = sorted(errors, key=lambda x: (float(np.mean(errors[x])), x))
     same: dict[tuple[str, ...], list[_Pair]] = defaultdict(list)
     for _, p in pairs:
         same[p.key].append(p)
     for group in same.values():
+        first = {}
+        for o in sorted(group, key=lambda o: o.cell):
+            first.setdefault(o.extractor, o)
         for p in group:
             if p.R is None or p.d is None:
                 continue
-            others = [rotation_deg(o.R.T @ p.R) + angle_between(o.d, p.d) for o in group
-                      if o.extractor != p.extractor and o.R is not None and o.d is not None]
+            tried = [first[x] for x in order if x != p.extractor and x in first][:escalations]
+            others = [rotation_deg(o.R.T @ p.R) + angle_between(o.d, p.d) for o in tried if o.R is not None and o.d is not None]
             if others:
                 p.signals["agreement"] = min(others)
     out: dict[str, list[_Pair]] = defaultdict(list)
@@ -148,24 +179,67 @@ def _grid(values: Sequence[float]) -> list[float]:
     return sorted({round(float(q), 2) for q in np.quantile(values, QUANTILES)}) if values else []
 
 
-def fit(pairs: Sequence[_Pair], signals: Sequence[str]) -> Fitted | None:
-    """Thresholds on ``signals`` (all tested with <=) maximising Youden's J over the pairs where all are defined
-    (a pair where one is undefined is not accepted by the statement, as at run time)."""
-    good = sum(p.good for p in pairs)
-    bad = len(pairs) - good
-    if good == 0 or bad == 0:
+def simulate(pairs: Sequence[_Pair], motion: tuple[float, float] | None, agreement: float | None) -> tuple[float, int, int]:
+    """Run the policy over each configuration's consecutive pairs as the loop would — the prior is the last
+    *accepted* step that translated, a fallback keeps it — and return (mean pair error, accepted, pairs).
+    ``motion``: the (heading_change, rotation_change) bounds of the first rule (None: no such rule);
+    ``agreement``: the second's (None: none). Without a prior, the pair takes its estimate if it has one."""
+    runs: dict[tuple[str, str], list[_Pair]] = defaultdict(list)
+    for p in pairs:
+        runs[p.run].append(p)
+    total, accepted, n = 0.0, 0, 0
+    for run in runs.values():
+        run.sort(key=lambda p: p.frame)
+        prior: tuple[np.ndarray, np.ndarray] | None = None
+        heading: np.ndarray | None = None
+        for p in run:
+            if p.truth is None:
+                continue
+            ok = False
+            if p.R is not None and p.d is not None and math.isfinite(p.est_err):
+                if prior is None:
+                    ok = True
+                else:
+                    if motion is not None and heading is not None:
+                        ok = angle_between(heading, p.d) <= motion[0] and rotation_deg(prior[0].T @ p.R) <= motion[1]
+                    if not ok and agreement is not None:
+                        ok = p.signals.get("agreement", math.inf) <= agreement
+            if ok:
+                total += p.est_err
+                accepted += 1
+                if p.parallax >= STILL_PX and p.R is not None and p.d is not None:
+                    prior, heading = (p.R, p.d), p.R @ p.d
+            else:
+                total += _coasting(p.truth, prior) if prior is not None else LOST_PAIR_DEG
+            n += 1
+    return (total / n if n else math.nan), accepted, n
+
+
+def fit(pairs: Sequence[_Pair], max_extra_fallback: float = MAX_EXTRA_FALLBACK) -> tuple[tuple[float, float] | None, float | None, Fitted] | None:
+    """The motion rule's bounds and the agreement rule's bound (either None: no such rule) with the least simulated
+    cost, searched jointly over their signals' deciles (the agreement rule matters only where the motion rule
+    does not accept, so the two are fitted together). A policy that falls back on more than ``max_extra_fallback``
+    of the pairs beyond those no estimate survives is not a front end that tracks (``nfex evaluate`` fails a run
+    past 30 % lost pairs) and is not considered."""
+    with_prior = [p for p in pairs if p.prior_err is not None]
+    heading, rotation, agree = (_grid([p.signals[s] for p in with_prior if s in p.signals])
+                                for s in ("heading_change", "rotation_change", "agreement"))
+    if not with_prior:
         return None
-    grids = [_grid([p.signals[s] for p in pairs if s in p.signals]) for s in signals]
-    if any(not g for g in grids):
-        return None
-    best: Fitted | None = None
-    for bounds in _product(grids):
-        acc = [all(s in p.signals and p.signals[s] <= b for s, b in zip(signals, bounds, strict=True)) for p in pairs]
-        tp = sum(a and p.good for a, p in zip(acc, pairs, strict=True))
-        fp = sum(a and not p.good for a, p in zip(acc, pairs, strict=True))
-        tpr, fpr = tp / good, fp / bad
-        if best is None or tpr - fpr > best.j + 1e-12:
-            best = Fitted(tuple(zip(signals, bounds, strict=True)), tpr - fpr, tpr, fpr, len(pairs), good)
+    accept_all, taken, _ = simulate(pairs, (math.inf, math.inf), None)
+    fall_back_all = simulate(pairs, None, None)[0]
+    motions: list[tuple[float, float] | None] = [None, *((h, r) for h in heading for r in rotation)]
+    agreements: list[float | None] = [None, *agree]
+    best: tuple[tuple[float, float] | None, float | None, Fitted] | None = None
+    for m in motions:
+        for a in agreements:
+            if m is None and a is None:
+                continue
+            cost, accepted, n = simulate(pairs, m, a)
+            if (taken - accepted) / max(n, 1) > max_extra_fallback:
+                continue
+            if best is None or cost < best[2].cost - 1e-9:
+                best = (m, a, Fitted((), cost, accept_all, fall_back_all, n, accepted))
     return best
 
 
@@ -178,13 +252,12 @@ def _product(grids: Sequence[Sequence[float]]) -> Iterable[tuple[float, ...]]:
             yield (v, *rest)
 
 
-RULES = (("heading_change", "rotation_change"), ("agreement",))
 
 
 def learn(pair_tables: Sequence[Path], tables: Sequence[Path], *, min_pairs: int = 500,
-          escalations: int = 2) -> tuple[str, list[dict[str, object]]]:
+          escalations: int = 2, max_extra_fallback: float = MAX_EXTRA_FALLBACK) -> tuple[str, list[dict[str, object]]]:
     """The verification program's text and one report row per fitted statement."""
-    by_agent = read(pair_tables, tables)
+    by_agent = read(pair_tables, tables, escalations)
     everyone = [p for ps in by_agent.values() for p in ps]
     groups: list[tuple[str | None, list[_Pair]]] = [(a, ps) for a, ps in sorted(by_agent.items()) if a and len(ps) >= min_pairs]
     if len(groups) < len(by_agent):
@@ -193,7 +266,7 @@ def learn(pair_tables: Sequence[Path], tables: Sequence[Path], *, min_pairs: int
     lines = [
         "# Verification of frame pairs (docs/dsl.md, \"Verification\"; nfex_core/verification.py).",
         "# Generated by `nfex program learn-verification` from the sweeps' pair tables — do not edit by hand:",
-        f"# {sources}. Thresholds maximise Youden's J of \"accepted ⇒ the estimate beats the motion prior\".",
+        f"# {sources}. Thresholds minimise the mean pair error (rotation + direction, °) of accepting or repeating the motion prior.",
         "",
         "program verification",
         "",
@@ -204,28 +277,21 @@ def learn(pair_tables: Sequence[Path], tables: Sequence[Path], *, min_pairs: int
         when = f" when agent is {agent}" if agent else (f" when agent is not one of ({', '.join(fitted_agents)})" if fitted_agents else "")
         if when.endswith("one of ()"):
             when = ""
-        for signals in RULES:
-            f = fit(ps, signals)
-            if f is None:
+        fitted = fit(ps, max_extra_fallback)
+        if fitted is None:
+            continue
+        motion, agreement, f = fitted
+        why = (f"learned from {f.pairs} frame pairs of {sources}{' for agent ' + agent if agent else ''} by running the "
+               f"policy over them: mean pair error {f.cost:.2f}° against {f.accept_all:.2f}° taking every checked "
+               f"estimate and {f.fall_back_all:.2f}° always repeating the motion prior; {f.accepted} accepted")
+        for tests in ([f"heading_change <= {motion[0]:g}", f"rotation_change <= {motion[1]:g}"] if motion else [],
+                      [f"agreement <= {agreement:g}"] if agreement is not None else []):
+            if not tests:
                 continue
-            tests = " and ".join(f"{s} <= {b:g}" for s, b in f.signals)
-            why = (f"learned from {f.pairs} frame pairs ({f.good} good) of {sources}"
-                   f"{' for agent ' + agent if agent else ''}: J {f.j:.2f}, TPR {f.tpr:.2f}, FPR {f.fpr:.2f}")
-            lines += [f"accept pair if {tests}{when}", f"    because {json.dumps(why, ensure_ascii=False)}"]
-            report.append({"agent": agent or "(pooled)", "tests": tests, "j": round(f.j, 3), "tpr": round(f.tpr, 3),
-                           "fpr": round(f.fpr, 3), "pairs": f.pairs, "good": f.good})
+            lines += [f"accept pair if {' and '.join(tests)}{when}", f"    because {json.dumps(why, ensure_ascii=False)}"]
+            report.append({"agent": agent or "(pooled)", "tests": " and ".join(tests), "cost": round(f.cost, 3),
+                           "accept_all": round(f.accept_all, 3), "fall_back_all": round(f.fall_back_all, 3),
+                           "pairs": f.pairs, "accepted": f.accepted})
     lines += [f"escalate at most {escalations}",
               "    because \"a prior, not learned: a pair costs at most 1 + N extractions; escalation goes to a different extractor\""]
     return "\n".join(lines) + "\n", report
-
-
-def quantile_summary(pairs: Mapping[str, Sequence[_Pair]]) -> dict[str, dict[str, float]]:
-    """Per signal: the median among good and among bad pairs (for the docs' table)."""
-    out: dict[str, dict[str, float]] = {}
-    everyone = [p for ps in pairs.values() for p in ps]
-    for s in ("rotation_change", "heading_change", "agreement"):
-        g = [p.signals[s] for p in everyone if s in p.signals and p.good]
-        b = [p.signals[s] for p in everyone if s in p.signals and not p.good]
-        out[s] = {"good_median": float(np.median(g)) if g else math.nan, "bad_median": float(np.median(b)) if b else math.nan,
-                  "good": len(g), "bad": len(b)}
-    return out

@@ -17,6 +17,7 @@ from .schema import (
     Selection,
     Session,
     SessionSelection,
+    Verdict,
     VersionInfo,
     Vocabulary,
     WriteResult,
@@ -42,6 +43,15 @@ def _frame_bytes(frame: Any) -> tuple[bytes, str]:
     return encode_png(frame), "image/png"
 
 
+def _tried(t: Mapping[str, Any]) -> dict[str, Any]:
+    """One tried candidate as the service reads it: numpy arrays (R, t) become lists."""
+    out = dict(t)
+    for k in ("R", "t"):
+        if out.get(k) is not None and hasattr(out[k], "tolist"):
+            out[k] = out[k].tolist()
+    return out
+
+
 def _if_match(version: int | None) -> dict[str, str]:
     return {"If-Match": f'"{version}"'} if version is not None else {}
 
@@ -63,6 +73,10 @@ class _Requests:
         data, media = _frame_bytes(frame)
         form = {"context": json.dumps(dict(context))} if context else {}
         return Call("POST", f"/v1/sessions/{session_id}/frames", {"files": {"frame": ("frame", data, media)}, "data": form})
+
+    @staticmethod
+    def verdict(session_id: str, tried: list[Mapping[str, Any]]) -> Call:
+        return Call("POST", f"/v1/sessions/{session_id}/verdict", {"json": {"tried": [_tried(t) for t in tried]}})
 
     @staticmethod
     def sparql(query: str, accept: str) -> Call:
@@ -117,6 +131,14 @@ class NfexClient:
 
     def session_frame(self, session_id: str, frame: Any, context: Context | None = None) -> SessionSelection:
         return self._do(_Requests.session_frame(session_id, frame, context))
+
+    def verdict(self, session_id: str, tried: list[Mapping[str, Any]]) -> Verdict:
+        """Judge the last frame's pair: ``tried`` holds, in the order of the frame's ``verification.proposals``,
+        what each estimate showed (extractor, params, R, t — numpy or lists; None for a lost pair — keypoints,
+        matches, inliers, parallax_px, extraction_ms, rejected). The answer's ``action`` is accept (use
+        ``tried[accepted]``), next (extract and match ``next``, then call again with it appended) or fallback
+        (use the motion prior)."""
+        return self._do(_Requests.verdict(session_id, tried))
 
     def close_session(self, session_id: str) -> None:
         self._do(Call("DELETE", f"/v1/sessions/{session_id}", {}, "none"))
@@ -208,6 +230,9 @@ class AsyncNfexClient:
 
     async def session_frame(self, session_id: str, frame: Any, context: Context | None = None) -> SessionSelection:
         return await self._do(_Requests.session_frame(session_id, frame, context))
+
+    async def verdict(self, session_id: str, tried: list[Mapping[str, Any]]) -> Verdict:
+        return await self._do(_Requests.verdict(session_id, tried))
 
     async def close_session(self, session_id: str) -> None:
         await self._do(Call("DELETE", f"/v1/sessions/{session_id}", {}, "none"))

@@ -10,6 +10,11 @@ if TYPE_CHECKING:
     from typing_extensions import NotRequired  # noqa: UP035 - the client runs on Python 3.10 too
 
 
+class AcceptRule(TypedDict):
+    tests: list[str]
+    because: Citation
+
+
 # One parameter changed from the base Θ, and why: Θ′ = Θ·Πf_kj(e_j), clamped to the graph's range.
 Adjustment = TypedDict('Adjustment', {'parameter': 'str', 'from': 'int | float | bool', 'to': 'int | float | bool', 'factor': 'float', 'clamped': 'bool', 'because': 'list[Citation]'})
 
@@ -250,6 +255,11 @@ class ProgramList(TypedDict):
     programs: list[ProgramInfo]
 
 
+class Proposal(TypedDict):
+    extractor: str
+    params: dict[str, int | float | bool]
+
+
 class Pruned(TypedDict):
     extractor: str
     because: list[Citation]
@@ -316,6 +326,7 @@ class Selection(TypedDict):
     context: list[ContextEntry]
     weights: dict[str, Weight]
     budget: Budget | None
+    verification: Verification
     warnings: list[str]
     versions: Versions
     timings_ms: dict[str, float]
@@ -344,6 +355,7 @@ class SessionSelection(TypedDict):
     context: list[ContextEntry]
     weights: dict[str, Weight]
     budget: Budget | None
+    verification: Verification
     warnings: list[str]
     versions: Versions
     timings_ms: dict[str, float]
@@ -372,6 +384,27 @@ class StreamPosition(TypedDict):
     id: str
     frame: int
     temporal: bool
+
+
+class Verdict(TypedDict):
+    """The decision on a frame pair after the candidates tried so far."""
+
+    action: str
+    reason: str
+    accepted: NotRequired[int | None]
+    because: NotRequired[Citation | None]
+    next: NotRequired[Proposal | None]
+    signals: list[dict[str, float | None]]
+    tries: int
+
+
+class Verification(TypedDict):
+    """How the frame pair is verified (docs/service.md, "Verified selection"): try ``proposals`` in order, report"""
+
+    max_tries: int
+    accept: list[AcceptRule]
+    escalation: Citation | None
+    proposals: list[Proposal]
 
 
 class VersionChanges(TypedDict):
@@ -432,4 +465,4 @@ class WriteResult(TypedDict):
     iri: NotRequired[str | None]
 
 
-__all__ = ['Adjustment', 'BackendStatus', 'Budget', 'Candidate', 'Citation', 'ConditionValue', 'Conditions', 'ContextEntry', 'Diff', 'Dimension', 'DimensionValues', 'Evidence', 'Extractor', 'ExtractorBrief', 'ExtractorList', 'Grid', 'Head', 'Health', 'Keypoints', 'MeasuredConfiguration', 'MetricBrief', 'ModelInfo', 'OpenCV', 'Parameter', 'ParameterBrief', 'Problem', 'Program', 'ProgramInfo', 'ProgramList', 'Pruned', 'Ready', 'Report', 'ReportList', 'Rule', 'RuleList', 'RuleTable', 'Selection', 'Session', 'SessionSelection', 'SparqlBindings', 'SparqlHead', 'SparqlResults', 'StreamPosition', 'VersionChanges', 'VersionInfo', 'VersionList', 'Versions', 'Vocabulary', 'Weight', 'WriteResult']
+__all__ = ['AcceptRule', 'Adjustment', 'BackendStatus', 'Budget', 'Candidate', 'Citation', 'ConditionValue', 'Conditions', 'ContextEntry', 'Diff', 'Dimension', 'DimensionValues', 'Evidence', 'Extractor', 'ExtractorBrief', 'ExtractorList', 'Grid', 'Head', 'Health', 'Keypoints', 'MeasuredConfiguration', 'MetricBrief', 'ModelInfo', 'OpenCV', 'Parameter', 'ParameterBrief', 'Problem', 'Program', 'ProgramInfo', 'ProgramList', 'Proposal', 'Pruned', 'Ready', 'Report', 'ReportList', 'Rule', 'RuleList', 'RuleTable', 'Selection', 'Session', 'SessionSelection', 'SparqlBindings', 'SparqlHead', 'SparqlResults', 'StreamPosition', 'Verdict', 'Verification', 'VersionChanges', 'VersionInfo', 'VersionList', 'Versions', 'Vocabulary', 'Weight', 'WriteResult']

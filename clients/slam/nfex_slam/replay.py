@@ -5,7 +5,9 @@
 
 Per frame, the VO (``nfex_core.vo.run_vo``) asks the service which extractor and parameters to run,
 through one session (``POST /v1/sessions/{id}/frames``: the service keeps the previous frame for the
-temporal metrics, as the in-process advisor does in ``nfex evaluate``). The frame goes as a lossless
+temporal metrics, as the in-process advisor does in ``nfex evaluate``). Where the graph's verification is in
+force, the VO tries the frame's proposals in order and the service judges each pair
+(``POST /v1/sessions/{id}/verdict``: accept, the next proposal, or the motion prior). The frame goes as a lossless
 PNG, so the service scores exactly the pixels the in-process advisor would. After the run it reports
 one feedback per window (ATE over the window, frames with tracking lost, mean inliers/matches/
 keypoints, extraction time, under the configuration used on most of the window's frames), writes the
@@ -36,11 +38,35 @@ class ServiceChooser:
     session_id: str
     selections: list[dict[str, Any]] = field(default_factory=list)
 
-    def __call__(self, frame: Any, history: list[Any]) -> tuple[str, dict[str, Any]]:
+    def __call__(self, frame: Any, history: list[Any]) -> Any:
+        from nfex_core.vo import Choice, Proposals
+
         sel = self.client.session_frame(self.session_id, frame.image, context=dict(frame.context) or None)
         self.selections.append({"frame": frame.index, "extractor": sel["extractor"], "params": sel["params"],
                                 "pruned": [p["extractor"] for p in sel["pruned"]]})
-        return sel["extractor"], dict(sel["params"])
+        verification = sel["verification"]
+        if not verification["accept"]:
+            return sel["extractor"], dict(sel["params"])
+        proposals = tuple(Choice(p["extractor"], dict(p["params"])) for p in verification["proposals"])
+        return Proposals(proposals, self.judge)
+
+    def judge(self, tried: list[Any], prior: Any, remaining: int) -> Any:
+        """The pair's verdict from the service (POST /v1/sessions/{id}/verdict), for the VO."""
+        from nfex_core.verification import Verdict
+
+        out = self.client.verdict(self.session_id, [_tried(e) for e in tried])
+        return Verdict(out["action"], out.get("accepted"), None, out["reason"])
+
+
+def _tried(e: Any) -> dict[str, Any]:
+    """A VO pair estimate (nfex_core.verification.PairEvidence) as the service reads it: R and t = −R·d."""
+    out: dict[str, Any] = {"extractor": e.extractor, "params": dict(e.params), "keypoints": e.keypoints, "matches": e.matches,
+                           "inliers": e.inliers, "parallax_px": e.parallax_px, "extraction_ms": e.extraction_ms,
+                           "rejected": e.rejected, "R": None, "t": None}
+    if e.rotation is not None and e.direction is not None:
+        R = e.matrix()
+        out["R"], out["t"] = R.tolist(), (-R @ np.asarray(e.direction, dtype=float)).tolist()
+    return out
 
 
 class _ServiceGraph:
