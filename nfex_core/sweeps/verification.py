@@ -42,7 +42,7 @@ import json
 import math
 from collections import defaultdict
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -81,6 +81,7 @@ class _Pair:
     d: np.ndarray | None
     parallax: float
     signals: dict[str, float]
+    partners: list[_Pair] = field(default_factory=list)  # the estimates the loop escalates to, in order
 
 
 def _rotation(rx: str, ry: str, rz: str) -> np.ndarray:
@@ -164,9 +165,10 @@ def read(pair_tables: Sequence[Path], tables: Sequence[Path], escalations: int =
             first.setdefault(o.extractor, o)
         for p in group:
             if p.R is None or p.d is None:
+                p.partners = [first[x] for x in order if x != p.extractor and x in first][:escalations]
                 continue
-            tried = [first[x] for x in order if x != p.extractor and x in first][:escalations]
-            others = [rotation_deg(o.R.T @ p.R) + angle_between(o.d, p.d) for o in tried if o.R is not None and o.d is not None]
+            p.partners = [first[x] for x in order if x != p.extractor and x in first][:escalations]
+            others = [_disagreement(p, o) for o in p.partners if o.R is not None and o.d is not None]
             if others:
                 p.signals["agreement"] = min(others)
     out: dict[str, list[_Pair]] = defaultdict(list)
@@ -179,11 +181,23 @@ def _grid(values: Sequence[float]) -> list[float]:
     return sorted({round(float(q), 2) for q in np.quantile(values, QUANTILES)}) if values else []
 
 
+def _disagreement(a: _Pair, b: _Pair) -> float:
+    assert a.R is not None and a.d is not None and b.R is not None and b.d is not None
+    return rotation_deg(b.R.T @ a.R) + angle_between(b.d, a.d)
+
+
+def _usable(p: _Pair) -> bool:
+    return p.R is not None and p.d is not None and math.isfinite(p.est_err)
+
+
 def simulate(pairs: Sequence[_Pair], motion: tuple[float, float] | None, agreement: float | None) -> tuple[float, int, int]:
-    """Run the policy over each configuration's consecutive pairs as the loop would — the prior is the last
-    *accepted* step that translated, a fallback keeps it — and return (mean pair error, accepted, pairs).
-    ``motion``: the (heading_change, rotation_change) bounds of the first rule (None: no such rule);
-    ``agreement``: the second's (None: none). Without a prior, the pair takes its estimate if it has one."""
+    """Run the policy over each configuration's consecutive pairs as the loop would, and return (mean pair error,
+    accepted, pairs). Per pair the loop tries the configuration's own estimate, then its ``partners`` (the other
+    extractors' estimates of the same pair, best first), and after each try accepts the first tried estimate that
+    passes the motion rule or agrees with another tried one (``verification.judge``); with none, it repeats the
+    motion prior — the last *accepted* step that translated, which a fallback keeps — or, without a prior, takes
+    the first usable estimate. ``motion``: the (heading_change, rotation_change) bounds (None: no such rule);
+    ``agreement``: the agreement bound (None: no such rule)."""
     runs: dict[tuple[str, str], list[_Pair]] = defaultdict(list)
     for p in pairs:
         runs[p.run].append(p)
@@ -195,20 +209,29 @@ def simulate(pairs: Sequence[_Pair], motion: tuple[float, float] | None, agreeme
         for p in run:
             if p.truth is None:
                 continue
-            ok = False
-            if p.R is not None and p.d is not None and math.isfinite(p.est_err):
-                if prior is None:
-                    ok = True
-                else:
-                    if motion is not None and heading is not None:
-                        ok = angle_between(heading, p.d) <= motion[0] and rotation_deg(prior[0].T @ p.R) <= motion[1]
+            tried: list[_Pair] = []
+            chosen: _Pair | None = None
+            for c in (p, *p.partners):
+                tried.append(c)
+                for i, e in enumerate(tried):
+                    if not _usable(e):
+                        continue
+                    ok = (motion is not None and prior is not None and heading is not None
+                          and angle_between(heading, e.d) <= motion[0] and rotation_deg(prior[0].T @ e.R) <= motion[1])
                     if not ok and agreement is not None:
-                        ok = p.signals.get("agreement", math.inf) <= agreement
-            if ok:
-                total += p.est_err
+                        ok = any(_disagreement(e, o) <= agreement for j, o in enumerate(tried) if j != i and _usable(o))
+                    if ok:
+                        chosen = e
+                        break
+                if chosen is not None or (motion is None and agreement is None) and prior is None:
+                    break
+            if chosen is None and prior is None:
+                chosen = next((e for e in tried if _usable(e)), None)
+            if chosen is not None:
+                total += chosen.est_err
                 accepted += 1
-                if p.parallax >= STILL_PX and p.R is not None and p.d is not None:
-                    prior, heading = (p.R, p.d), p.R @ p.d
+                if chosen.parallax >= STILL_PX and chosen.R is not None and chosen.d is not None:
+                    prior, heading = (chosen.R, chosen.d), chosen.R @ chosen.d
             else:
                 total += _coasting(p.truth, prior) if prior is not None else LOST_PAIR_DEG
             n += 1

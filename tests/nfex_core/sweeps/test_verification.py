@@ -64,7 +64,8 @@ def test_learned_thresholds_separate_right_from_wrong_estimates(tmp_path: Path) 
     assert accepts and all(s.when[0].values == ("car",) for s in accepts)
     bounds = {t.signal: t.bound for s in accepts for t in s.tests}
     # wrong estimates turn ≥ 10° away from the prior, head ≥ 20° off it and disagree by ≥ 10°: no rule admits them
-    assert bounds.get("rotation_change", 0) < 10 and bounds.get("heading_change", 0) < 20 and bounds.get("agreement", 0) < 10
+    assert bounds.get("rotation_change", 0) < 10 or bounds.get("heading_change", 0) < 20
+    assert bounds.get("agreement", 0) < 10
     # the fitted policy beats taking every estimate and always coasting, on the pairs it was fitted to
     for r in report:
         assert float(r["cost"]) < min(float(r["accept_all"]), float(r["fall_back_all"]))  # type: ignore[arg-type]
