@@ -157,7 +157,8 @@ class Selection:
                 "max_tries": self.verification.max_tries,
                 "accept": [{"tests": [t.text() for t in r.tests], "because": r.citation.as_dict()} for r in self.verification.accept],
                 "escalation": self.verification.escalation_citation.as_dict() if self.verification.escalation_citation else None,
-                "proposals": [{"extractor": c.extractor, "params": c.params} for c in self.proposals],
+                "proposals": [{"extractor": c.extractor, "params": c.params, "expected_ms": c.evidence.expected_ms}
+                              for c in self.proposals],
             },
             "warnings": list(self.warnings),
             "versions": self.versions,

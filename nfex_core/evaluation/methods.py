@@ -17,6 +17,7 @@ evaluation's evidence scope, which holds the evaluated sequence out (``kg.scope`
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -114,6 +115,7 @@ class AdvisorChooser:
     selections: list[dict[str, Any]] = field(default_factory=list)
     _state: Any = None
     _window: BudgetWindow | None = None
+    _frame_ms: float = 0.0  # the expected ms of the frame in progress (its tries so far)
 
     def __call__(self, frame: Frame, history: list[FrameRecord]) -> Choice | Proposals:
         sel = self.advisor.select({**self.context, **frame.context}, frame.image, self._state, budget_ms=self.budget_ms)
@@ -136,13 +138,16 @@ class AdvisorChooser:
             terms = self.advisor.snapshot().table.budget_terms
             self._window = BudgetWindow(self.budget_ms, terms.window, terms.verification_cap)
         elif history:
-            self._window.close(history[-1].extraction_ms)
+            self._window.close(self._frame_ms)
         window = self._window
+        costs = [BudgetWindow.try_cost(k, c.evidence.expected_ms) for k, c in enumerate(proposals)]
+        self._frame_ms = costs[0] if costs and math.isfinite(costs[0]) else 0.0
 
         def within_budget(tried: list[PairEvidence], prior: Prior | None, remaining: int) -> Verdict:
             v = judge(policy, tried, prior, remaining)
-            if v.action == NEXT and not window.allows(sum(e.extraction_ms for e in tried), proposals[len(tried)].evidence.expected_ms):
+            if v.action == NEXT and not window.allows(sum(costs[: len(tried)]), costs[len(tried)]):
                 v = judge(policy, tried, prior, 0)  # the next candidate does not fit: decide on what was tried
+            self._frame_ms = sum(c for c in costs[: len(tried) + (v.action == NEXT)] if math.isfinite(c))
             return v
 
         return Proposals(tuple(Choice(c.extractor, dict(c.params)) for c in proposals), within_budget)

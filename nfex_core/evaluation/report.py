@@ -3,8 +3,8 @@
 Per condition, one row per method: mean ATE over the paired runs with its 95 % confidence interval, the
 paired comparison with the best static method (Wilcoxon signed-rank p; ``stats``) — for a budgeted nFEX,
 with the best static method whose expected cost fits that budget — RPE, extraction ms per frame (mean and
-the largest single frame), the cost model's expected ms, and lost / rejected pairs. Under a schedule,
-per-segment ATE and the transition pairs; with oracles, the headroom: where nFEX stands between the best
+the largest single frame), the cost model's expected ms, candidates tried per pair, and lost / rejected /
+fell-back pairs. Under a schedule, per-segment ATE and the transition pairs; with oracles, the headroom: where nFEX stands between the best
 static method and the per-pair oracle.
 """
 from __future__ import annotations
@@ -68,8 +68,9 @@ def _row(ev: Evaluation, key: str, condition: str, recs: list[RunRecord]) -> lis
     ext = f"{np.mean([r.extraction_ms for r in recs]):.1f} / {max(r.extraction_max_ms for r in recs):.1f}"
     exp = [r.expected_ms for r in recs]
     expected = _num(float(np.mean(exp)), ".1f") if exp and all(e is not None for e in exp) else "—"  # type: ignore[arg-type]
-    lost = f"{sum(r.lost for r in recs)} / {sum(r.rejected for r in recs)}"
-    return [display(key), ate, ci, vs, _num(rpe), ext, expected, lost]
+    lost = f"{sum(r.lost for r in recs)} / {sum(r.rejected for r in recs)} / {sum(r.fell_back for r in recs)}"
+    tries = f"{np.mean([r.tries for r in recs]):.2f} / {max(r.tries_max for r in recs)}"
+    return [display(key), ate, ci, vs, _num(rpe), ext, expected, tries, lost]
 
 
 def ref_is(ev: Evaluation, key: str, condition: str) -> bool:
@@ -79,7 +80,7 @@ def ref_is(ev: Evaluation, key: str, condition: str) -> bool:
 def markdown(ev: Evaluation) -> str:
     lines: list[str] = []
     head = ["Method", "Mean ATE (m)", "95 % CI", "vs best static (Wilcoxon)", "RPE (m)", "extraction ms/frame mean / max",
-            "expected ms", "lost / rejected pairs"]
+            "expected ms", "tries/pair mean / max", "lost / rejected / fell back pairs"]
     for condition in ev.conditions:
         title = f"schedule {ev.schedule.text}" if condition == SCHEDULE and ev.schedule else condition
         lines += [f"### {ev.dataset} {ev.sequence}: {title}", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
@@ -160,11 +161,12 @@ def csv_text(ev: Evaluation) -> str:
     buf = io.StringIO()
     w = csv.writer(buf)
     w.writerow(["method", "budget_ms", "condition", "run", "ate_rmse", "rpe_rmse", "failed", "lost_pairs", "rejected_pairs",
-                "frames", "extraction_ms", "extraction_max_ms", "matching_ms", "expected_ms", "wall_s", "note"])
+                "frames", "extraction_ms", "extraction_max_ms", "matching_ms", "expected_ms", "tries", "tries_max", "fell_back",
+                "wall_s", "note"])
     for r in ev.records:
         w.writerow([r.method, "" if r.budget_ms is None else r.budget_ms, r.condition, r.run, _csv(r.ate_rmse), _csv(r.rpe_rmse),
                     int(r.failed), r.lost, r.rejected, r.frames, f"{r.extraction_ms:.3f}", f"{r.extraction_max_ms:.3f}",
-                    f"{r.matching_ms:.3f}", _csv(r.expected_ms), f"{r.wall_s:.2f}", r.note])
+                    f"{r.matching_ms:.3f}", _csv(r.expected_ms), f"{r.tries:.3f}", r.tries_max, r.fell_back, f"{r.wall_s:.2f}", r.note])
     return buf.getvalue()
 
 
@@ -177,7 +179,7 @@ def frames_csv(ev: Evaluation) -> str:
     buf = io.StringIO()
     w = csv.writer(buf)
     w.writerow(["method", "budget_ms", "condition", "run", "frame", "segment", "extractor", "params", "keypoints", "matches",
-                "inliers", "lost", "reason", "rotation_error_deg", "direction_error_deg", "extraction_ms"])
+                "inliers", "lost", "reason", "rotation_error_deg", "direction_error_deg", "extraction_ms", "tries", "tried"])
     for r in ev.records:
         if r.result is None:
             continue
@@ -186,7 +188,7 @@ def frames_csv(ev: Evaluation) -> str:
             w.writerow([r.method, "" if r.budget_ms is None else r.budget_ms, r.condition, r.run, f.index, seg, f.extractor,
                         json.dumps(f.params, sort_keys=True), f.keypoints, f.matches, f.inliers, int(f.lost), f.reason,
                         _csv(f.errors[0] if f.errors else None), _csv(f.errors[1] if f.errors else None),
-                        f"{f.extraction_ms:.3f}"])
+                        f"{f.extraction_ms:.3f}", f.tries, json.dumps(f.verdict) if f.verdict else ""])
     return buf.getvalue()
 
 
@@ -227,6 +229,8 @@ def as_json(ev: Evaluation) -> dict[str, Any]:
                 "expected_ms_mean": (float(np.mean([r.expected_ms for r in recs]))
                                      if all(r.expected_ms is not None for r in recs) else None),
                 "lost_pairs": sum(r.lost for r in recs), "rejected_pairs": sum(r.rejected for r in recs),
+                "fell_back_pairs": sum(r.fell_back for r in recs),
+                "tries_per_pair_mean": float(np.mean([r.tries for r in recs])), "tries_per_pair_max": max(r.tries_max for r in recs),
                 "segments": [r.segments for r in recs] if recs[0].segments else None,
                 "transitions": [r.transitions for r in recs] if recs[0].transitions else None,
                 "note": recs[0].note,

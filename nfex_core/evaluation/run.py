@@ -12,8 +12,9 @@
 - **Oracles** (``oracle``): the hindsight choices over the static methods' own pair estimates (``oracle``).
 
 Per run: ATE and RPE (Sim(3), evo ``-as``), per segment and per transition pair under a schedule, lost
-and rejected pairs, extraction ms per frame (mean and max: what a budget bounds, re-extraction on a
-switch included), matching ms, and the cost model's expected ms of the configurations run.
+and rejected pairs (and, for a verifying method, the pairs verification sent to the motion prior), candidates
+tried per pair (mean and max), extraction ms per frame (mean and max: what a budget bounds, every try and the
+re-extraction on a switch included), matching ms, and the cost model's expected ms of the configurations run.
 """
 from __future__ import annotations
 
@@ -58,6 +59,9 @@ class RunRecord:
     wall_s: float
     note: str = ""
     budget_ms: float | None = None
+    tries: float = 1.0  # candidates tried per frame pair, mean (verification; 1 without)
+    tries_max: int = 1
+    fell_back: int = 0  # pairs verification sent to the motion prior (counted in lost too)
     segments: list[dict[str, Any]] = field(default_factory=list)
     transitions: list[dict[str, Any]] = field(default_factory=list)
     result: VOResult | None = field(default=None, repr=False)
@@ -283,6 +287,9 @@ def _record(
         extraction_max_ms=max((f.extraction_ms for f in res.frames), default=0.0),
         matching_ms=res.mean("matching_ms", skip_first=True), expected_ms=expected.mean(res), wall_s=wall_s,
         note=note, budget_ms=budget,
+        tries=float(np.mean([f.tries for f in res.frames[1:]])) if len(res.frames) > 1 else 1.0,
+        tries_max=max((f.tries for f in res.frames), default=1),
+        fell_back=sum(f.reason.startswith("verify:") for f in res.frames),
         segments=by_segment(errors, res, use_sched) if use_sched else [],
         transitions=transitions(errors, res, use_sched) if use_sched else [],
         result=res,

@@ -182,6 +182,7 @@ class AcceptRule(Out):
 class Proposal(Out):
     extractor: str
     params: dict[str, Value]
+    expected_ms: float | None = Field(None, description="The cost model's expected extraction ms (under a budget).")
 
 
 class Verification(Out):

@@ -103,3 +103,19 @@ def test_pair_evidence_round_trips_its_rotation() -> None:
     R = _yaw(7.0)
     e = PairEvidence.of("ORB", {}, R, np.array([0.0, 0.0, -1.0]))
     assert rotation_deg(e.matrix().T @ R) < 1e-6
+
+
+def test_the_budget_window_allows_an_expensive_try_only_where_the_mean_and_the_cap_hold() -> None:
+    from nfex_core.verification import BudgetWindow
+
+    w = BudgetWindow(20.0, window=10, cap=4.0)
+    assert BudgetWindow.try_cost(0, 5.0) == 5.0 and BudgetWindow.try_cost(1, 5.0) == 10.0  # a switch re-extracts k-1
+    assert not w.allows(5.0, BudgetWindow.try_cost(1, 60.0))  # 125 ms: over the per-frame cap of 80
+    assert w.allows(5.0, BudgetWindow.try_cost(1, 7.0))  # 19 ms: within everything
+    for _ in range(9):
+        w.close(5.0)  # nine cheap frames leave room in the mean: (45 + 5 + 70) / 10 = 12 ms
+    assert w.allows(5.0, BudgetWindow.try_cost(1, 35.0))
+    for _ in range(9):
+        w.close(19.0)  # nine frames near the budget leave none: (171 + 5 + 14) / 10 = 19 ms … + 70 → 24 ms
+    assert w.allows(5.0, BudgetWindow.try_cost(1, 7.0)) and not w.allows(5.0, BudgetWindow.try_cost(1, 35.0))
+    assert not w.allows(5.0, BudgetWindow.try_cost(1, None))  # unknown cost: never on a budget
