@@ -258,6 +258,7 @@ class ProgramList(TypedDict):
 class Proposal(TypedDict):
     extractor: str
     params: dict[str, int | float | bool]
+    expected_ms: NotRequired[float | None]
 
 
 class Pruned(TypedDict):
