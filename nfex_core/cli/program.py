@@ -109,7 +109,7 @@ def remove(
 @app.command("learn-verification")
 def learn_verification(
     table: Annotated[list[Path], typer.Option("--table", help="A sweep's training table; its pair table (…-pairs.csv.gz) is read beside it. Repeatable.", exists=True, dir_okay=False)],
-    out: Annotated[Path, typer.Option("--out", "-o", help="The program file to write.")] = Path("rules/programs/verification.nfex"),
+    out: Annotated[Path, typer.Option("--out", "-o", help="The program file to write.")] = Path("rules/verification/verification.nfex"),
     min_pairs: Annotated[int, typer.Option("--min-pairs", help="Pairs an agent needs for thresholds of its own.")] = 500,
     escalations: Annotated[int, typer.Option("--escalations", help="The prior N of `escalate at most N`.")] = 2,
     max_extra_fallback: Annotated[float, typer.Option("--max-extra-fallback", help="Share of pairs the policy may coast on beyond those nothing survives.")] = 0.1,

@@ -60,3 +60,45 @@ def test_replay_prints_the_ate_nfex_evaluate_reports(shipped_template: tuple[Pat
     assert [s["extractor"] for s in res.selections] == [s["extractor"] for s in run.selections]
     assert [s["params"] for s in res.selections] == [s["params"] for s in run.selections]
     assert res.ate_rmse is not None and res.ate_rmse == pytest.approx(run.ate_rmse, abs=1e-9)
+
+
+@pytest.mark.slow
+def test_a_verified_replay_is_judged_by_the_service_as_nfex_evaluate_judges_it(shipped_template: tuple[Path, Any], data_dir: Path, tmp_path: Path) -> None:
+    """With the learned verification program applied on both sides, the replay tries the frame's proposals and
+    asks the service's /verdict after each; its trajectory equals `nfex evaluate`'s, pair by pair the same
+    verdicts, so the HTTP protocol and the in-process loop are one policy."""
+    import shutil
+
+    from nfex_slam import replay
+
+    from nfex_core.datasets import open_sequence
+    from nfex_core.evaluation import evaluate
+    from nfex_core.kg import KnowledgeGraph
+    from nfex_core.rules.dsl import programs
+    from tests.conftest import stop_process
+    from tests.service.conftest import start_service
+
+    template, settings = shipped_template
+    program = ROOT / "rules" / "verification" / "verification.nfex"
+    for name in ("served", "local"):
+        shutil.copytree(template, tmp_path / name, ignore=shutil.ignore_patterns("LOCK"))
+        kg = KnowledgeGraph.open(str(tmp_path / name), settings=settings)
+        try:
+            p, graph = programs.load(program, kg.vocabulary(), settings)
+            programs.apply(kg, graph, p.name, author="pytest")
+        finally:
+            kg.close()
+    seq = open_sequence(data_dir / "kitti", "kitti", "01")
+    svc = start_service(str(tmp_path / "served"), tmp_path / "service.log")
+    try:
+        res = replay(svc.url, seq, tmp_path / "kitti01.tum", frames=12, report=False, seed=0)
+    finally:
+        stop_process(svc.proc)
+    kg = KnowledgeGraph.open(str(tmp_path / "local"), settings=settings)
+    try:
+        [run] = evaluate(seq, kg, methods=["nfex"], runs=1, frames=12).records
+    finally:
+        kg.close()
+    assert run.result is not None and run.tries > 1  # the loop did escalate: verification was in force
+    assert [s["extractor"] for s in res.selections] == [s["extractor"] for s in run.selections]
+    assert res.ate_rmse is not None and res.ate_rmse == pytest.approx(run.ate_rmse, abs=1e-9)

@@ -11,7 +11,7 @@ import pytest
 from nfex_core.errors import NotFound
 from service.sessions import SessionStore, TooManySessions
 
-from .conftest import Service, assert_problem
+from .conftest import Service, assert_problem, auth
 
 
 def test_session_lifecycle(service: Service) -> None:
@@ -136,8 +136,25 @@ def _estimate(yaw_deg: float, heading_deg: float, extractor: str, **measured: fl
 
 
 def test_a_stream_verifies_each_pair_accepting_escalating_and_falling_back(service: Service, data_dir) -> None:  # type: ignore[no-untyped-def]
-    """The verification protocol through a real `nfex serve`: the frame's proposals, then /verdict with the
-    estimates tried so far: next (with the next proposal), accept (citing the accept statement), fallback."""
+    """The verification protocol through a real `nfex serve`: the learned program applied through the API, the
+    frame's proposals, then /verdict with the estimates tried so far: next (with the next proposal), accept
+    (citing the accept statement), fallback; removing the program turns verification off again."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[2] / "rules" / "verification" / "verification.nfex").read_text()
+    plain = {"content-type": "text/plain", **auth()}
+    r = httpx.put(service.url + "/v1/programs/verification", content=text, headers=plain, timeout=60)
+    assert r.status_code in (200, 201), r.text
+    try:
+        _verify_a_stream(service, data_dir)
+    finally:
+        assert httpx.delete(service.url + "/v1/programs/verification", headers=auth(), timeout=60).status_code in (200, 204)
+    r = httpx.post(service.url + "/v1/select?consistency=latest", json={"context": {"agent": "car"}}, timeout=60)
+    assert r.status_code == 200, r.text
+    assert r.json()["verification"]["accept"] == [] and r.json()["verification"]["max_tries"] == 1
+
+
+def _verify_a_stream(service: Service, data_dir) -> None:  # type: ignore[no-untyped-def]
     sid = httpx.post(service.url + "/v1/sessions", json={"context": {"agent": "car", "scene": "outdoor"}}).json()["id"]
     frames = [cv2.imread(str(data_dir / "kitti" / "sequences" / "00" / "image_0" / f"{i:06d}.png"), cv2.IMREAD_GRAYSCALE) for i in range(4)]
 
@@ -151,7 +168,7 @@ def test_a_stream_verifies_each_pair_accepting_escalating_and_falling_back(servi
         return httpx.post(f"{service.url}/v1/sessions/{sid}/verdict", json={"tried": tried}, timeout=30)
 
     v = frame(0)
-    assert v["accept"], "the shipped graph holds the verification program"
+    assert v["accept"], "the applied program is in force for a car"
     assert v["max_tries"] >= 2 and 1 <= len(v["proposals"]) <= v["max_tries"]
     first, second = v["proposals"][0]["extractor"], v["proposals"][1]["extractor"]
     assert first != second  # escalation goes to a different extractor
