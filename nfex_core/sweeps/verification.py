@@ -160,7 +160,7 @@ def read(pair_tables: Sequence[Path], tables: Sequence[Path], escalations: int =
     for _, p in pairs:
         same[p.key].append(p)
     for group in same.values():
-        first = {}
+        first: dict[str, _Pair] = {}
         for o in sorted(group, key=lambda o: o.cell):
             first.setdefault(o.extractor, o)
         for p in group:
@@ -214,7 +214,7 @@ def simulate(pairs: Sequence[_Pair], motion: tuple[float, float] | None, agreeme
             for c in (p, *p.partners):
                 tried.append(c)
                 for i, e in enumerate(tried):
-                    if not _usable(e):
+                    if not _usable(e) or e.R is None or e.d is None:
                         continue
                     ok = (motion is not None and prior is not None and heading is not None
                           and angle_between(heading, e.d) <= motion[0] and rotation_deg(prior[0].T @ e.R) <= motion[1])

@@ -214,6 +214,16 @@ CASES.update(
             "s1",
             "RequireStatementShape",
         ),
+        "accept statement without a pair test": ("nfex:s1 a nfex:AcceptStatement ; " + _STMT + ".", "s1", "AcceptStatementShape"),
+        "pair test reading an unknown signal": (
+            "nfex:s1 a nfex:AcceptStatement ; " + _STMT + "nfex:hasTest nfex:s1_test_1 . "
+            'nfex:s1_test_1 a nfex:PairTest ; nfex:signal "luck" ; nfex:testComparator "<=" ; nfex:threshold "1.0"^^xsd:double .',
+            "s1_test_1",
+            "PairTestShape",
+        ),
+        "escalate statement allowing 9 more tries": (
+            "nfex:s1 a nfex:EscalateStatement ; " + _STMT + "nfex:maxEscalations 9 .", "s1", "EscalateStatementShape",
+        ),
         "condition atom with a value of another dimension": (
             "nfex:s1 a nfex:PruneStatement ; " + _STMT + "nfex:prunes nfex:ORB ; nfex:hasCondition nfex:s1_when_1 . "
             "nfex:s1_when_1 a nfex:ConditionAtom ; nfex:dimension nfex:light ; nfex:oneOf nfex:agent_car .",
