@@ -47,7 +47,7 @@ from .motion import angle_between, motion_direction, rotation_deg
 from .rules.types import Citation, Policy
 
 ACCEPT, NEXT, FALLBACK = "accept", "next", "fallback"
-STILL_PX = 0.5  # a step whose median inlier parallax is below this did not translate (vo.VOParams.still_px)
+STILL_PX = 0.5  # px: a step whose median inlier parallax is below this did not translate (vo.VOParams default)
 
 
 @dataclass

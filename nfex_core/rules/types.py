@@ -88,9 +88,6 @@ class Policy:
     def max_tries(self) -> int:
         return 1 + self.escalations if self.active else 1
 
-    def citations(self) -> tuple[Citation, ...]:
-        out = tuple(r.citation for r in self.accept)
-        return out + ((self.escalation_citation,) if self.escalation_citation else ())
 
 
 NO_POLICY = Policy()

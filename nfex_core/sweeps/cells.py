@@ -201,8 +201,9 @@ def pair_summary(res: Any) -> dict[str, Any]:
 def pair_rows(cell: Cell, seq: Sequence, res: Any, segments: list[str]) -> list[dict[str, Any]]:
     """One row per frame pair of the window: what the configuration's estimate showed, and its error."""
     out = []
+    poses = seq.poses  # the ground truth as an array: seq[i].pose would decode frame i's image again
     for j, f in enumerate(res.frames[1:], start=1):
-        truth = _truth(seq, res.frames[j - 1].index, f.index)
+        truth = _truth(poses, res.frames[j - 1].index, f.index)
         est = f.estimate
         rvec = _rotvec(est[0]) if est is not None else (None, None, None)
         direction = motion_direction(*est) if est is not None else (None, None, None)
@@ -223,13 +224,12 @@ def pair_rows(cell: Cell, seq: Sequence, res: Any, segments: list[str]) -> list[
     return out
 
 
-def _truth(seq: Sequence, a: int, b: int) -> tuple[float | None, ...]:
+def _truth(poses: np.ndarray | None, a: int, b: int) -> tuple[float | None, ...]:
     """The true relative motion of frames a → b as a rotation vector and a unit direction of motion (Nones
     without poses): what a verifier's choices are scored against (sweeps/verification.py)."""
-    pa, pb = seq[a].pose, seq[b].pose
-    if pa is None or pb is None:
+    if poses is None:
         return (None,) * 6
-    R, t = relative_truth(pa, pb)
+    R, t = relative_truth(poses[a], poses[b])
     return (*_rotvec(R), *(float(v) for v in motion_direction(R, t)))
 
 

@@ -59,7 +59,6 @@ MAX_EXTRA_FALLBACK = 0.1  # a policy may coast on at most this share of pairs be
 
 @dataclass(frozen=True)
 class Fitted:
-    signals: tuple[tuple[str, float], ...]  # (signal, threshold) tested with <=
     cost: float  # mean pair error (degrees) of the rule's choices
     accept_all: float  # … of taking every estimate that passed the checks
     fall_back_all: float  # … of always repeating the motion prior
@@ -74,7 +73,7 @@ class _Pair:
     cell: str
     frame: int
     est_err: float  # e_est (module docstring); inf where the pair cannot be accepted
-    prior_err: float | None  # e_prior against the stand-in prior (the signals' grid); None without one
+    stand_in: bool  # whether the pair has a stand-in prior (the signals' grid is read over those)
     truth: tuple[np.ndarray, np.ndarray] | None  # the true (R, d) of the pair
     run: tuple[str, str]  # (cell, window start): one configuration's consecutive pairs
     R: np.ndarray | None
@@ -101,12 +100,6 @@ def _truth(r: Mapping[str, str]) -> tuple[np.ndarray, np.ndarray] | None:
 def _coasting(truth: tuple[np.ndarray, np.ndarray], prior: tuple[np.ndarray, np.ndarray]) -> float:
     """The error of repeating the prior's motion (R_p, d_p) on a pair whose true motion is ``truth``."""
     return min(rotation_deg(truth[0].T @ prior[0]) + angle_between(prior[1], truth[1]), LOST_PAIR_DEG)
-
-
-def _prior_error(r: Mapping[str, str], prior: tuple[np.ndarray, np.ndarray] | None) -> float | None:
-    """e_prior against a stand-in prior; None without prior or truth."""
-    truth = _truth(r)
-    return _coasting(truth, prior) if truth is not None and prior is not None else None
 
 
 def _agents(tables: Iterable[Path]) -> dict[str, str]:
@@ -138,7 +131,6 @@ def read(pair_tables: Sequence[Path], tables: Sequence[Path], escalations: int =
             d = np.array([float(r["dx"]), float(r["dy"]), float(r["dz"])]) if r["dx"] != "" else None
             errs = (r["rotation_error_deg"], r["direction_error_deg"])
             est_err = min(sum(float(e) for e in errs), LOST_PAIR_DEG) if estimated and "" not in errs else math.inf
-            prior_err = _prior_error(r, prior)
             parallax = float(r["parallax_px"] or 0)
             sig: dict[str, float] = {}
             if estimated and R is not None and d is not None and prior is not None:
@@ -147,7 +139,7 @@ def read(pair_tables: Sequence[Path], tables: Sequence[Path], escalations: int =
             condition = f"{r['before']}→{r['after']}"  # the images' conditions: equal keys are equal images
             key = (r["dataset"], r["sequence"], condition, r["severity"], r["seed"], r["window_start"], r["frame"])
             truth = _truth(r)
-            p = _Pair(key, r["extractor"], cell, int(r["frame"]), est_err, prior_err, truth, (cell, r["window_start"]), R if estimated else None, d if estimated else None, parallax, sig)
+            p = _Pair(key, r["extractor"], cell, int(r["frame"]), est_err, prior is not None, truth, (cell, r["window_start"]), R if estimated else None, d if estimated else None, parallax, sig)
             pairs.append((agents.get(cell, ""), p))
             if math.isfinite(est_err) and est_err <= 2 * BAD_PAIR_DEG and R is not None and d is not None and parallax >= STILL_PX:
                 prior = (R, d)  # what a verifier should have accepted (module docstring)
@@ -164,10 +156,9 @@ def read(pair_tables: Sequence[Path], tables: Sequence[Path], escalations: int =
         for o in sorted(group, key=lambda o: o.cell):
             first.setdefault(o.extractor, o)
         for p in group:
-            if p.R is None or p.d is None:
-                p.partners = [first[x] for x in order if x != p.extractor and x in first][:escalations]
-                continue
             p.partners = [first[x] for x in order if x != p.extractor and x in first][:escalations]
+            if p.R is None or p.d is None:
+                continue
             others = [_disagreement(p, o) for o in p.partners if o.R is not None and o.d is not None]
             if others:
                 p.signals["agreement"] = min(others)
@@ -244,7 +235,7 @@ def fit(pairs: Sequence[_Pair], max_extra_fallback: float = MAX_EXTRA_FALLBACK) 
     does not accept, so the two are fitted together). A policy that falls back on more than ``max_extra_fallback``
     of the pairs beyond those no estimate survives is not a front end that tracks (``nfex evaluate`` fails a run
     past 30 % lost pairs) and is not considered."""
-    with_prior = [p for p in pairs if p.prior_err is not None]
+    with_prior = [p for p in pairs if p.stand_in]
     heading, rotation, agree = (_grid([p.signals[s] for p in with_prior if s in p.signals])
                                 for s in ("heading_change", "rotation_change", "agreement"))
     if not with_prior:
@@ -262,17 +253,8 @@ def fit(pairs: Sequence[_Pair], max_extra_fallback: float = MAX_EXTRA_FALLBACK) 
             if (taken - accepted) / max(n, 1) > max_extra_fallback:
                 continue
             if best is None or cost < best[2].cost - 1e-9:
-                best = (m, a, Fitted((), cost, accept_all, fall_back_all, n, accepted))
+                best = (m, a, Fitted(cost, accept_all, fall_back_all, n, accepted))
     return best
-
-
-def _product(grids: Sequence[Sequence[float]]) -> Iterable[tuple[float, ...]]:
-    if not grids:
-        yield ()
-        return
-    for v in grids[0]:
-        for rest in _product(grids[1:]):
-            yield (v, *rest)
 
 
 

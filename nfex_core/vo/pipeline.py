@@ -44,7 +44,7 @@ import numpy as np
 
 from ..datasets.base import Frame, Sequence
 from ..motion import NO_CHECKS, StepChecks, motion_direction, pair_errors, relative_truth
-from ..verification import ACCEPT, NEXT, PairEvidence, Prior, Verdict
+from ..verification import ACCEPT, NEXT, STILL_PX, PairEvidence, Prior, Verdict
 from ..vision.features import Features
 from ..vision.registry import ExtractorRegistry
 from .geometry import match, relative_pose, triangulate, undistort
@@ -67,7 +67,7 @@ class VOParams:
     min_matches: int = 15
     min_inliers: int = 10
     ransac_threshold_px: float = 1.0
-    still_px: float = 0.5  # median inlier parallax below which a step has no translation
+    still_px: float = STILL_PX  # median inlier parallax below which a step has no translation
     scale: str = "triangulated"  # "triangulated" | "unit" | "gt"
     min_scale_points: int = 8
     max_scale_change: float = 2.0  # per step, against a bad triangulation
