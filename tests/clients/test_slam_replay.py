@@ -29,44 +29,10 @@ def test_replay_kitti01_through_a_session(service: Service, data_dir: Path, tmp_
     assert res.failed or (res.ate_rmse is not None and res.ate_rmse >= 0)
 
 
-@pytest.mark.slow
-def test_replay_prints_the_ate_nfex_evaluate_reports(shipped_template: tuple[Path, Any], data_dir: Path, tmp_path: Path) -> None:
-    """The issue's check: through a running service (its own copy of the shipped graph) the replay's ATE
-    equals `nfex evaluate`'s for nfex (run 0) on another copy, frame for frame the same choices."""
-    import shutil
-
-    from nfex_slam import replay
-
-    from nfex_core.datasets import open_sequence
-    from nfex_core.evaluation import evaluate
-    from nfex_core.kg import KnowledgeGraph
-    from tests.conftest import stop_process
-    from tests.service.conftest import start_service
-
-    template, settings = shipped_template
-    for name in ("served", "local"):
-        shutil.copytree(template, tmp_path / name, ignore=shutil.ignore_patterns("LOCK"))
-    seq = open_sequence(data_dir / "kitti", "kitti", "01")
-    svc = start_service(str(tmp_path / "served"), tmp_path / "service.log")
-    try:
-        res = replay(svc.url, seq, tmp_path / "kitti01.tum", frames=20, report=False, seed=0)
-    finally:
-        stop_process(svc.proc)
-    kg = KnowledgeGraph.open(str(tmp_path / "local"), settings=settings)
-    try:
-        [run] = evaluate(seq, kg, methods=["nfex"], runs=1, frames=20).records
-    finally:
-        kg.close()
-    assert [s["extractor"] for s in res.selections] == [s["extractor"] for s in run.selections]
-    assert [s["params"] for s in res.selections] == [s["params"] for s in run.selections]
-    assert res.ate_rmse is not None and res.ate_rmse == pytest.approx(run.ate_rmse, abs=1e-9)
-
-
-@pytest.mark.slow
-def test_a_verified_replay_is_judged_by_the_service_as_nfex_evaluate_judges_it(shipped_template: tuple[Path, Any], data_dir: Path, tmp_path: Path) -> None:
-    """With the learned verification program applied on both sides, the replay tries the frame's proposals and
-    asks the service's /verdict after each; its trajectory equals `nfex evaluate`'s, pair by pair the same
-    verdicts, so the HTTP protocol and the in-process loop are one policy."""
+def _replay_and_evaluate(template: Path, settings: Any, data_dir: Path, tmp_path: Path, frames: int,
+                         program: Path | None = None) -> tuple[Any, Any]:
+    """The replay through a running service on one copy of ``template`` and `nfex evaluate`'s nfex run 0 on
+    another (``program`` applied to both first)."""
     import shutil
 
     from nfex_slam import replay
@@ -78,27 +44,46 @@ def test_a_verified_replay_is_judged_by_the_service_as_nfex_evaluate_judges_it(s
     from tests.conftest import stop_process
     from tests.service.conftest import start_service
 
-    template, settings = shipped_template
-    program = ROOT / "rules" / "verification" / "verification.nfex"
     for name in ("served", "local"):
         shutil.copytree(template, tmp_path / name, ignore=shutil.ignore_patterns("LOCK"))
-        kg = KnowledgeGraph.open(str(tmp_path / name), settings=settings)
-        try:
-            p, graph = programs.load(program, kg.vocabulary(), settings)
-            programs.apply(kg, graph, p.name, author="pytest")
-        finally:
-            kg.close()
+        if program is not None:
+            kg = KnowledgeGraph.open(str(tmp_path / name), settings=settings)
+            try:
+                p, graph = programs.load(program, kg.vocabulary(), settings)
+                programs.apply(kg, graph, p.name, author="pytest")
+            finally:
+                kg.close()
     seq = open_sequence(data_dir / "kitti", "kitti", "01")
     svc = start_service(str(tmp_path / "served"), tmp_path / "service.log")
     try:
-        res = replay(svc.url, seq, tmp_path / "kitti01.tum", frames=12, report=False, seed=0)
+        res = replay(svc.url, seq, tmp_path / "kitti01.tum", frames=frames, report=False, seed=0)
     finally:
         stop_process(svc.proc)
     kg = KnowledgeGraph.open(str(tmp_path / "local"), settings=settings)
     try:
-        [run] = evaluate(seq, kg, methods=["nfex"], runs=1, frames=12).records
+        [run] = evaluate(seq, kg, methods=["nfex"], runs=1, frames=frames).records
     finally:
         kg.close()
+    return res, run
+
+
+@pytest.mark.slow
+def test_replay_prints_the_ate_nfex_evaluate_reports(shipped_template: tuple[Path, Any], data_dir: Path, tmp_path: Path) -> None:
+    """The issue's check: through a running service (its own copy of the shipped graph) the replay's ATE
+    equals `nfex evaluate`'s for nfex (run 0) on another copy, frame for frame the same choices."""
+    res, run = _replay_and_evaluate(*shipped_template, data_dir, tmp_path, frames=20)
+    assert [s["extractor"] for s in res.selections] == [s["extractor"] for s in run.selections]
+    assert [s["params"] for s in res.selections] == [s["params"] for s in run.selections]
+    assert res.ate_rmse is not None and res.ate_rmse == pytest.approx(run.ate_rmse, abs=1e-9)
+
+
+@pytest.mark.slow
+def test_a_verified_replay_is_judged_by_the_service_as_nfex_evaluate_judges_it(shipped_template: tuple[Path, Any], data_dir: Path, tmp_path: Path) -> None:
+    """With the learned verification program applied on both sides, the replay tries the frame's proposals and
+    asks the service's /verdict after each; its trajectory equals `nfex evaluate`'s, pair by pair the same
+    verdicts, so the HTTP protocol and the in-process loop are one policy."""
+    program = ROOT / "rules" / "verification" / "verification.nfex"
+    res, run = _replay_and_evaluate(*shipped_template, data_dir, tmp_path, frames=12, program=program)
     assert run.result is not None and run.tries > 1  # the loop did escalate: verification was in force
     assert [s["extractor"] for s in res.selections] == [s["extractor"] for s in run.selections]
     assert res.ate_rmse is not None and res.ate_rmse == pytest.approx(run.ate_rmse, abs=1e-9)

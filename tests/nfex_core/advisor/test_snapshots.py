@@ -52,13 +52,20 @@ def _background(store: Store) -> Snapshots[Snap]:
     return snaps
 
 
-def test_the_old_snapshot_answers_while_the_next_compiles_and_says_how_stale_it_is() -> None:
+
+def _held_compile() -> tuple[Store, Snapshots[Snap]]:
+    """A background Snapshots at version 1 whose compile of version 2 has started and is held (``store.gate``)."""
     store = Store()
     snaps = _background(store)
     store.gate.clear()
     store.started.clear()
     store.commit(snaps)
-    assert store.started.wait(5)  # the compile of version 2 runs, and is held
+    assert store.started.wait(5)
+    return store, snaps
+
+
+def test_the_old_snapshot_answers_while_the_next_compiles_and_says_how_stale_it_is() -> None:
+    store, snaps = _held_compile()  # the compile of version 2 runs, and is held
     time.sleep(0.02)
     snap = snaps.get()  # returns while the compile is still held: it did not wait for it
     assert snap.version == 1 and not store.gate.is_set()
@@ -72,12 +79,7 @@ def test_the_old_snapshot_answers_while_the_next_compiles_and_says_how_stale_it_
 
 
 def test_commits_during_a_compile_coalesce_into_exactly_one_more() -> None:
-    store = Store()
-    snaps = _background(store)
-    store.gate.clear()
-    store.started.clear()
-    store.commit(snaps)
-    assert store.started.wait(5)
+    store, snaps = _held_compile()
     for _ in range(5):  # versions 3..7 land while version 2 compiles
         store.commit(snaps)
     store.gate.set()
@@ -86,12 +88,7 @@ def test_commits_during_a_compile_coalesce_into_exactly_one_more() -> None:
 
 
 def test_sync_waits_for_the_head_and_inline_mode_never_answers_stale() -> None:
-    store = Store()
-    snaps = _background(store)
-    store.gate.clear()
-    store.started.clear()
-    store.commit(snaps)
-    assert store.started.wait(5)
+    store, snaps = _held_compile()
     done: list[int] = []
     waiter = threading.Thread(target=lambda: done.append(snaps.sync().version))
     waiter.start()
