@@ -36,9 +36,22 @@ def check(file: FileArg) -> None:
     typer.echo(f"ok: program {program.name}, {len(program.statements)} statements")
 
 
+def shipped_or_file(file: Path) -> Path:
+    """FILE itself, or the program of that name shipped outside the seeded set (``rules/*/NAME.nfex`` in the
+    installed package, e.g. ``verification``): what a wheel user, who has no checkout, can name."""
+    if file.exists():
+        return file
+    rules = settings().rules_dir
+    found = sorted(p for p in rules.glob(f"*/{file.name}.nfex") if p.parent.name != "programs") if file.name == str(file) else []
+    if not found:
+        shipped = sorted(p.stem for p in rules.glob("*/*.nfex") if p.parent.name != "programs")
+        raise NotFound(f"no file {str(file)!r} and no shipped program of that name; shipped: {', '.join(shipped) or '(none)'}")
+    return found[0]
+
+
 @app.command()
 def apply(
-    file: FileArg,
+    file: Annotated[Path, typer.Argument(help="A program file (.nfex), or the name of a shipped opt-in program (e.g. verification).")],
     message: Annotated[str, typer.Option("--message", "-m", help="A note kept with the version.")] = "",
     author: Annotated[str | None, typer.Option("--author", help="Who makes the change.")] = None,
     expect_version: Annotated[int | None, typer.Option("--expect-version", help="Refuse (exit 5) unless the graph is at this version.")] = None,
@@ -47,6 +60,7 @@ def apply(
     from ..rules.dsl import programs
     from .kg import report_commit
 
+    file = shipped_or_file(file)
     kg = open_kg()
     program, graph = programs.load(file, kg.vocabulary(), settings())
     result = programs.apply(

@@ -119,3 +119,21 @@ def test_the_budget_window_allows_an_expensive_try_only_where_the_mean_and_the_c
         w.close(19.0)  # nine frames near the budget leave none: (171 + 5 + 14) / 10 = 19 ms … + 70 → 24 ms
     assert w.allows(5.0, BudgetWindow.try_cost(1, 7.0)) and not w.allows(5.0, BudgetWindow.try_cost(1, 35.0))
     assert not w.allows(5.0, BudgetWindow.try_cost(1, None))  # unknown cost: never on a budget
+
+
+def test_the_shacl_shape_admits_exactly_the_signals_the_verifier_computes() -> None:
+    """rules/shapes/dsl.ttl lists the pair signals for editors who write triples directly; it must not drift from
+    the list the parser checks and ``signals`` computes."""
+    import rdflib
+    from rdflib.collection import Collection
+    from rdflib.namespace import SH
+
+    from nfex_core.config import Settings
+    from nfex_core.namespaces import NFEX
+    from nfex_core.rules.types import PAIR_SIGNALS
+
+    g = rdflib.Graph().parse(Settings.from_env().rules_dir / "shapes" / "dsl.ttl")
+    [prop] = [p for p in g.objects(NFEX.PairTestShape, SH.property) if g.value(p, SH.path) == NFEX.signal]
+    assert {str(v) for v in Collection(g, g.value(prop, SH["in"]))} == set(PAIR_SIGNALS)
+    computed = signals([_pair("ORB", 1.0, 1.0)], 0, FORWARD)
+    assert set(computed) == set(PAIR_SIGNALS)

@@ -62,3 +62,14 @@ def test_apply_show_list_remove(cli_env: dict[str, str], tmp_path: Path) -> None
     assert run_cli(["program", "remove", "site"], cli_env).returncode == 0
     missing = run_cli(["program", "show", "site"], cli_env)
     assert missing.returncode == 4 and "no program named 'site'" in missing.stderr
+
+
+def test_a_shipped_opt_in_program_is_applied_by_name(cli_env: dict[str, str]) -> None:
+    """`nfex program apply verification` finds the learned program in the installed rules (a wheel user has no
+    checkout to point at); an unknown name says what is shipped, with exit code 4."""
+    p = run_cli(["program", "apply", "verification"], cli_env)
+    assert p.returncode == 0, p.stderr
+    assert "program verification" in p.stdout
+    assert "accept pair if" in run_cli(["program", "show", "verification"], cli_env).stdout
+    missing = run_cli(["program", "apply", "nonesuch"], cli_env)
+    assert missing.returncode == 4 and "shipped: verification" in missing.stderr
