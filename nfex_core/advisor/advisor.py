@@ -79,7 +79,9 @@ class Advisor:
     ``scope``: the evidence the advisor may read (kg.scope): the graph is read through it, and a model
     trained on a held-out sequence is not used.
     ``background``: compile new graph versions on a background thread while the last snapshot answers
-    (snapshots.py); off, a selection after a commit waits for its compile (read-your-writes)."""
+    (snapshots.py); off, a selection after a commit waits for its compile (read-your-writes).
+    ``exhaustive_scoring``: extract and score every candidate on a frame, not only those that can still win
+    (scoring.Scorer; the same α* and Θ′, slower: for comparisons)."""
 
     def __init__(
         self,
@@ -92,8 +94,10 @@ class Advisor:
         score_threads: int | None = None,
         scope: EvidenceScope | None = None,
         background: bool = False,
+        exhaustive_scoring: bool = False,
     ) -> None:
         settings = kg.settings
+        self.exhaustive_scoring = exhaustive_scoring
         self.scope = scope or EvidenceScope()
         if not self.scope.empty and getattr(kg, "scope", None) != self.scope:
             kg = scoped_graph(kg, self.scope)  # every reader of measurements then honours the scope
@@ -227,7 +231,9 @@ class Advisor:
             return cached[1], Scored(listed, None, "selectornet" if decided else "prior")
         pixels = int(cond.image.shape[0] * cond.image.shape[1])
         params = parameters(snap.vocab, snap.table, decision, cond.values, budget, nn, pixels)
-        return params, self.scorer.on_frame(snap.vocab, snap.registry, decision, params, nn, cond.image, previous)
+        # verification tries the candidates in order: it needs every one scored, not only the winner
+        exhaustive = self.exhaustive_scoring or decision.verification.active
+        return params, self.scorer.on_frame(snap.vocab, snap.registry, decision, params, nn, cond.image, previous, exhaustive)
 
     def _answer(
         self, snap: Snapshot, decision: Decision, cond: Conditions, budget: Budget | None, nn: NeuralStep,

@@ -11,10 +11,15 @@ frame's proxies together. Where SelectorNet is in use its probabilities, masked 
 scores when its own first choice is a candidate; the candidates it was not trained on are then listed
 with probability 0 and not extracted at all.
 
+Only what can still win is extracted (Scorer): SelectorNet's choice is settled by interval bounds over the
+metrics not yet measured, and under F_metrics a candidate whose best reachable score is below the leader's is
+skipped; α* and Θ′ are those of scoring every candidate.
+
 Without a frame (mode ``prior``): score(α) = bonus + A(α), computed once per context and snapshot.
 """
 from __future__ import annotations
 
+import math
 import threading
 from collections.abc import Iterable, Mapping
 from concurrent.futures import ThreadPoolExecutor
@@ -25,7 +30,7 @@ import numpy as np
 
 from ..fitness import f_metrics
 from ..kg.vocab import ExtractorSpec, Value, Vocabulary
-from ..neural.serve import NeuralStep
+from ..neural.serve import BoundedChoice, NeuralStep
 from ..rules.types import Decision
 from .params import Candidate, Parameters
 from .selection import CandidateEvidence, CandidateScore
@@ -35,10 +40,22 @@ SCORE_PIXELS = 320 * 240  # QVGA: the scoring copy's pixel count, whatever the a
 
 @dataclass(frozen=True)
 class FrameState:
-    """What a stream keeps from one frame for the next: the scoring image and each candidate's features."""
+    """What a stream keeps from one frame for the next: the scoring image, each extracted candidate's features,
+    and the Θ′ (at the scoring size) of the candidates that exhaustive scoring would have extracted but that
+    were skipped here — the next frame extracts those from ``image`` only if its own scoring needs them."""
 
     image: np.ndarray
     features: dict[str, Any]
+    owed: dict[str, dict[str, Value]] = field(default_factory=dict)
+
+    def previous(self, extractor: str, shape: tuple[int, ...], registry: Any) -> tuple[Any, np.ndarray] | None:
+        """``(features, image)`` of ``extractor`` on this frame for the temporal metrics of a frame of ``shape``."""
+        if self.image.shape != shape:
+            return None
+        if extractor not in self.features and extractor in self.owed:
+            self.features[extractor] = registry.extract(extractor, self.image, self.owed[extractor])
+        feats = self.features.get(extractor)
+        return None if feats is None else (feats, self.image)
 
 
 @dataclass
@@ -53,7 +70,18 @@ class Scored:
 
 @dataclass
 class Scorer:
-    """Scores candidates on frames; ``threads`` extract them side by side (OpenCV releases the GIL)."""
+    """Scores candidates on frames; ``threads`` extract them side by side (OpenCV releases the GIL).
+
+    Only what can still win is extracted (``exhaustive=False``, the default). Where SelectorNet is in use,
+    the candidates it knows are extracted cheapest first until its choice is settled whatever the metrics
+    of the rest (``NeuralStep.bounded_choice``: interval bounds over their [0, 1] range). Where F_metrics
+    decides, candidates are extracted in order of the best score they could reach,
+
+        score(α) ≤ bonus(α) + Σ_x max(0, h_x(E)) + H·A(α)      (every m_x ∈ [0, 1], vision.metrics),
+
+    and a candidate whose bound is below the leader's score is skipped. α*, Θ′ and the order of the scored
+    candidates are those of exhaustive scoring; skipped candidates are listed with ``score=None`` and the
+    reason. ``exhaustive=True`` scores every candidate (verification needs the full ranking)."""
 
     score_pixels: int = SCORE_PIXELS
     threads: int = 2
@@ -76,22 +104,21 @@ class Scorer:
         nn: NeuralStep,
         image: np.ndarray,
         previous: FrameState | None,
+        exhaustive: bool = False,
     ) -> Scored:
-        """Score every candidate of ``params`` on ``image`` (module docstring)."""
-        from ..vision.metrics import compute_metrics
+        """Score the candidates of ``params`` on ``image`` that can still win (class docstring)."""
+        from ..vision.metrics import SINGLE_FRAME, TEMPORAL, compute_metrics
 
         small = downscale(image, self.score_pixels)
-        full_px = int(image.shape[0] * image.shape[1])
-        small_px = int(small.shape[0] * small.shape[1])
+        ratio = (small.shape[0] * small.shape[1]) / (image.shape[0] * image.shape[1])
         accuracy = measured_accuracy(decision, params.candidates)
         weight = sum(w.value for w in decision.weights.values())  # H: F_metrics' most without the bonus
+        at_scale = {x: scaled(vocab.extractor(x), c.params, ratio) for x, c in params.candidates.items()}
+        done: dict[str, tuple[CandidateScore, Any]] = {}
 
         def score(c: Candidate) -> tuple[CandidateScore, Any]:
-            spec = vocab.extractor(c.extractor)
-            feats = registry.extract(c.extractor, small, scaled(spec, c.params, small_px / full_px))
-            prev = None
-            if previous is not None and c.extractor in previous.features and previous.image.shape == small.shape:
-                prev = (previous.features[c.extractor], previous.image)
+            feats = registry.extract(c.extractor, small, at_scale[c.extractor])
+            prev = previous.previous(c.extractor, small.shape, registry) if previous is not None else None
             metrics = compute_metrics(feats, small, prev)
             bonus = decision.bonuses[c.extractor].value if c.extractor in decision.bonuses else 0.0
             f = f_metrics(metrics, decision.weights, vocab.metrics, bonus)
@@ -103,26 +130,108 @@ class Scorer:
                 evidence=replace(evidence_of(decision, c), f_metrics=f, measured_accuracy=a),
             ), feats
 
-        def run(cs: list[Candidate]) -> list[tuple[CandidateScore, Any]]:
-            return list(self.pool().map(score, cs)) if len(cs) > 1 else [score(c) for c in cs]
+        def run(cs: list[Candidate]) -> None:
+            out = list(self.pool().map(score, cs)) if len(cs) > 1 else [score(c) for c in cs]
+            done.update((s.extractor, (s, feats)) for s, feats in out)
+
+        def state(extracted_by_exhaustive: Iterable[str]) -> FrameState:
+            features = {x: feats for x, (_, feats) in done.items()}
+            owed = {x: at_scale[x] for x in extracted_by_exhaustive if x not in done}
+            return FrameState(small, features, owed)
+
+        def will_have(x: str) -> tuple[str, ...]:
+            """The metrics candidate ``x`` will have once extracted on this frame."""
+            temporal = previous is not None and previous.image.shape == small.shape and \
+                (x in previous.features or x in previous.owed)
+            return (*SINGLE_FRAME, *TEMPORAL) if temporal else SINGLE_FRAME
 
         everything = list(params.candidates.values())
-        known = nn.selector_extractors if nn.selectornet else None
-        # SelectorNet is masked to what it was trained on: score those first; if it decides, the others
-        # (probability 0 whatever their F_metrics) are not extracted at all
-        first = [c for c in everything if c.extractor in known] if known is not None else everything
-        done = run(first or everything)
-        scored = [s for s, _ in done]
-        features = {s.extractor: feats for s, feats in done}
-        if known is not None and first:
-            rest = [unscored(decision, c) for c in everything if c.extractor not in known]
-            ranked, decided = by_network(nn, image, scored, scored + rest)
-            if decided:
-                return Scored(ranked, FrameState(small, features), "selectornet")
-            more = run([c for c in everything if c.extractor not in known])
-            scored += [s for s, _ in more]
-            features.update({s.extractor: feats for s, feats in more})
-        return Scored(scored, FrameState(small, features), "metrics")
+        if exhaustive:
+            run(everything)
+        known = nn.selector_extractors if nn.selectornet else frozenset()
+        first = sorted((c for c in everything if c.extractor in known), key=lambda c: expected_ms(decision, c))
+        # SelectorNet is masked to what it was trained on: its candidates are scored first; if it decides, the
+        # others (probability 0 whatever their F_metrics) are not extracted at all
+        while first:
+            todo = [c for c in first if c.extractor not in done]
+            if todo:
+                unknown = {c.extractor: will_have(c.extractor) for c in todo}
+                bound = nn.bounded_choice(image, {x: s.metrics for x, (s, _) in done.items()}, unknown, list(params.candidates))
+                if bound is not None and bound.allowed:
+                    return Scored(settled(decision, params, bound, known, done), state(c.extractor for c in first), "selectornet")
+                if bound is None:
+                    run(todo[: max(1, self.threads)])
+                    continue
+            else:
+                scored = [done[c.extractor][0] for c in everything if c.extractor in done]
+                rest = [unscored(decision, c) for c in everything if c.extractor not in known]
+                ranked, decided = by_network(nn, image, scored, scored + rest)
+                if decided:
+                    return Scored(ranked, state(done), "selectornet")
+            break  # SelectorNet declines: F_metrics and the measured accuracy decide among all candidates
+        ceiling = {c.extractor: score_ceiling(decision, vocab, c.extractor, will_have(c.extractor),
+                                              accuracy.get(c.extractor, 0.0), weight) for c in everything}
+        waiting = sorted((c for c in everything if c.extractor not in done), key=lambda c: -ceiling[c.extractor])
+        skipped: dict[str, str] = {}
+        while waiting:
+            leader = max((s for s, _ in done.values()), key=lambda s: s.score if s.score is not None else -math.inf, default=None)
+            if leader is not None and leader.score is not None:
+                for c in [c for c in waiting if ceiling[c.extractor] < leader.score - SCORE_MARGIN]:
+                    skipped[c.extractor] = (f"cannot overtake {leader.extractor} ({leader.score:.4f}): its score is at most "
+                                            f"{ceiling[c.extractor]:.4f} whatever its metrics")
+                waiting = [c for c in waiting if c.extractor not in skipped]
+            # the most promising alone first (it sets the bar), then side by side
+            wave = 1 if not done else max(1, self.threads)
+            run(waiting[:wave])
+            waiting = waiting[wave:]
+        # listed in the order exhaustive scoring lists them (SelectorNet's first), which breaks exact ties
+        order = sorted(everything, key=lambda c: c.extractor not in known)
+        listed = [done[c.extractor][0] if c.extractor in done else unscored(decision, c, skipped[c.extractor]) for c in order]
+        return Scored(listed, state(params.candidates), "metrics")
+
+
+SCORE_MARGIN = 1e-9  # a candidate is skipped only if its ceiling is below the leader by more than rounding
+
+
+def expected_ms(decision: Decision, c: Candidate) -> float:
+    """The order in which SelectorNet's candidates are extracted: the budget's expected time, else the measured
+    mean extraction time, else last."""
+    if c.cost is not None and c.cost.ms is not None:
+        return c.cost.ms
+    e = decision.evidence.get(c.extractor)
+    return e.extraction_ms if e is not None and e.extraction_ms is not None else math.inf
+
+
+def score_ceiling(decision: Decision, vocab: Vocabulary, extractor: str, metrics: Iterable[str], accuracy: float,
+                  weight: float) -> float:
+    """The most F_metrics + H·A can give ``extractor`` on this frame: its bonus, each of the ``metrics`` it will have
+    at its best (fitness.f_metrics weighs an unweighted metric 1; an absent one adds nothing) and its measured
+    accuracy."""
+    bonus = decision.bonuses[extractor].value if extractor in decision.bonuses else 0.0
+    best = sum(max(0.0, decision.weights[m].value if m in decision.weights else 1.0) for m in metrics if m in vocab.metrics)
+    return bonus + best + weight * accuracy
+
+
+def settled(decision: Decision, params: Parameters, bound: BoundedChoice, known: frozenset[str],
+            done: Mapping[str, tuple[CandidateScore, Any]]) -> list[CandidateScore]:
+    """The candidates when SelectorNet's choice is settled by bounds: α* scored with its probability's least value
+    over the unmeasured metrics, the others it knows without a score and why (those extracted keep their metrics),
+    the ones it does not know as ``unscored``."""
+    out = []
+    for x, c in params.candidates.items():
+        base = done[x][0] if x in done else unscored(decision, c)
+        if x == bound.extractor:
+            why = None if x in done else (
+                f"SelectorNet's choice whatever the unmeasured metrics (interval bounds: its logit ≥ {bound.logit_low:.3f}, "
+                f"every other ≤ {bound.rival_high:.3f}); not extracted, its score is its least probability")
+            out.append(replace(base, score=bound.p_low, evidence=replace(base.evidence, not_scored=why, score_without_net=base.score)))
+        elif x in known:
+            why = (f"cannot overtake {bound.extractor}: SelectorNet's logit ≤ {bound.rival_high:.3f} < {bound.logit_low:.3f} "
+                   "whatever the unmeasured metrics")
+            out.append(replace(base, score=None, evidence=replace(base.evidence, not_scored=why, score_without_net=base.score)))
+        else:
+            out.append(base)
+    return out
 
 
 def prior_scores(decision: Decision, params: Parameters) -> list[CandidateScore]:
@@ -143,13 +252,13 @@ def evidence_of(decision: Decision, c: Candidate) -> CandidateEvidence:
                              cost=c.cost)
 
 
-def unscored(decision: Decision, c: Candidate) -> CandidateScore:
-    """A candidate SelectorNet was not trained on, listed (probability 0) but not extracted."""
-    return CandidateScore(
-        extractor=c.extractor, params=c.params, score=None, adjustments=c.adjustments,
-        evidence=replace(evidence_of(decision, c),
-                         not_scored="SelectorNet decided and was not trained on this extractor (probability 0)"),
-    )
+UNTRAINED = "SelectorNet decided and was not trained on this extractor (probability 0)"
+
+
+def unscored(decision: Decision, c: Candidate, why: str = UNTRAINED) -> CandidateScore:
+    """A candidate listed but not extracted, and why (by default: one SelectorNet was not trained on)."""
+    return CandidateScore(extractor=c.extractor, params=c.params, score=None, adjustments=c.adjustments,
+                          evidence=replace(evidence_of(decision, c), not_scored=why))
 
 
 def by_network(

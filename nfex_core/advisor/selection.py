@@ -27,7 +27,8 @@ class CandidateEvidence:
     - ``cost``: the expected extraction time under a budget (None without one);
     - ``f_metrics``, ``measured_accuracy``: the two terms of the frame score F_metrics + H·A;
     - ``score_without_net``: the score before SelectorNet replaced it by its probability;
-    - ``not_scored``: why the candidate was listed but not extracted.
+    - ``not_scored``: why the candidate has no score: not extracted because it could not win (scoring.Scorer), or
+      SelectorNet settled the choice by bounds.
     """
 
     measured: Evidence | None = None

@@ -108,6 +108,24 @@ class SelectorNet:
         z = np.maximum(z @ fct[1] + w["fc2.bias"], 0.0)
         return z @ fct[2] + w["fc3.bias"]
 
+    def logit_bounds(self, image: np.ndarray, low: np.ndarray, high: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds on every logit over all numeric inputs with low ≤ numeric ≤ high, the image fixed: interval
+        bound propagation (Gowal et al. 2018). Through an affine layer the box with centre c and radius r
+        maps to centre W c + b and radius |W| r; ReLU is monotone, so it maps the bounds themselves. Sound
+        (every input in the box gives logits inside), computed in float64 so rounding stays far below the
+        margin a caller demands."""
+        w, fct = self._w, self._fct  # type: ignore[attr-defined]
+        g = self.embed(image).astype(np.float64)
+        lo = np.concatenate([g, low.astype(np.float64)])
+        hi = np.concatenate([g, high.astype(np.float64)])
+        for i, n in enumerate(FCS):
+            weight, bias = fct[i].astype(np.float64), w[f"{n}.bias"].astype(np.float64)
+            centre, radius = (lo + hi) / 2 @ weight + bias, (hi - lo) / 2 @ np.abs(weight)
+            lo, hi = centre - radius, centre + radius
+            if n != FCS[-1]:
+                lo, hi = np.maximum(lo, 0.0), np.maximum(hi, 0.0)
+        return lo, hi
+
     def forward(self, images: np.ndarray, numeric: np.ndarray) -> np.ndarray:
         """Batch logits: images (N, H, W), numeric (N, n) → (N, extractors)."""
         return np.stack([self.logits(im, nu) for im, nu in zip(images, numeric, strict=True)])
@@ -158,3 +176,27 @@ def numeric_input(
             bits[i] = 1.0
             m[i] = [metrics[x].get(k, 0.0) for k in metric_names]
     return np.concatenate([context, stats, np.array([float(has_image)], np.float32), m.ravel(), bits])
+
+
+def numeric_box(
+    context: np.ndarray,
+    stats: np.ndarray,
+    metrics: Mapping[str, Mapping[str, float]],
+    unknown: Mapping[str, Sequence[str]],
+    extractors: Sequence[str],
+    metric_names: Sequence[str],
+) -> tuple[np.ndarray, np.ndarray]:
+    """The numeric inputs (``numeric_input`` with an image) when the ``unknown`` extractors' metrics are not yet
+    measured: each metric it names lies in [0, 1] (vision.metrics normalises every one), the rest is absent
+    (0), and its bit is 1 — the extractor will have metrics once extracted. Known ``metrics`` enter exactly."""
+    low = numeric_input(context, stats, True, metrics, extractors, metric_names)
+    high = low.copy()
+    n, k = len(extractors), len(metric_names)
+    block, bits = len(low) - n * (k + 1), len(low) - n  # where m(α_1)… and bit(α_1)… start
+    for i, x in enumerate(extractors):
+        if x in unknown and x not in metrics:
+            low[bits + i] = high[bits + i] = 1.0
+            for j, name in enumerate(metric_names):
+                if name in unknown[x]:
+                    high[block + i * k + j] = 1.0
+    return low, high

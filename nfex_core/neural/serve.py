@@ -31,9 +31,10 @@ from ..kg.vocab import ExtractorSpec, Value, Vocabulary
 from ..rules.types import Adjustment, Citation
 from .artifacts import NeuralModel, find_model
 from .paramnet import decode
-from .selectornet import masked_probabilities, numeric_input, prepare_image
+from .selectornet import masked_probabilities, numeric_box, numeric_input, prepare_image
 
 MODES = ("symbolic", "paramnet", "selectornet", "both")
+LOGIT_MARGIN = 1e-3  # a bound decides only with this much to spare: the served network computes in float32
 
 
 def check_mode(mode: str) -> str:
@@ -130,6 +131,44 @@ class NeuralStep:
             )
             return {}
         return masked_probabilities(logits, inp.extractors, allowed)
+
+
+    def bounded_choice(
+        self, image: np.ndarray, metrics: Mapping[str, Mapping[str, float]], unknown: Mapping[str, Sequence[str]],
+        candidates: Sequence[str],
+    ) -> BoundedChoice | None:
+        """SelectorNet's first choice over what it knows, if the metrics still ``unknown`` (extractor → the metric
+        names it will have) cannot change it: its logit's lower bound beats every other logit's upper bound by
+        ``LOGIT_MARGIN`` over the whole box of those metrics (SelectorNet.logit_bounds). None: not decided yet."""
+        assert self.model is not None and self.model.selectornet is not None
+        assert self._ctx is not None and self._stats is not None
+        inp = self.model.inputs
+        known = sorted(self.model.selector_extractors)
+        metrics = {x: m for x, m in metrics.items() if x in known}
+        low, high = numeric_box(self._ctx, self._stats, metrics, unknown, inp.extractors, inp.metrics)
+        lo, hi = self.model.selectornet.logit_bounds(prepare_image(image), low, high)
+        at = {x: inp.extractors.index(x) for x in known}
+        top = max(known, key=lambda x: lo[at[x]])
+        if any(lo[at[top]] - hi[at[x]] <= LOGIT_MARGIN for x in known if x != top):
+            return None
+        rivals = [x for x in candidates if x in at and x != top]
+        # P(top) over the candidates ≥ 1 / (1 + Σ exp(hi_j − lo_top)): the softmax's least value over the box
+        p_low = 1.0 / (1.0 + sum(float(np.exp(hi[at[x]] - lo[at[top]])) for x in rivals))
+        rival_high = max((float(hi[at[x]]) for x in known if x != top), default=float("-inf"))
+        return BoundedChoice(top, top in candidates, p_low, float(lo[at[top]]), rival_high)
+
+
+@dataclass(frozen=True)
+class BoundedChoice:
+    """SelectorNet's choice settled by bounds: ``extractor`` whatever the unmeasured metrics, whether it is a
+    candidate (if not, the network declines as in ``probabilities``), its probability's lower bound over the
+    candidates, its logit's lower bound and the highest upper bound of any other logit."""
+
+    extractor: str
+    allowed: bool
+    p_low: float
+    logit_low: float
+    rival_high: float
 
 
 class ModelHolder:

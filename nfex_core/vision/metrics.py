@@ -30,6 +30,8 @@ MOTION_SCALE = 0.1  # a median displacement of 10 % of the image diagonal gives 
 DISSIMILARITY_HALF = 8.0  # grey levels of mean absolute difference that give dissimilarity 0.5
 RATIO = 0.8  # Lowe's (2004) ratio test for a correspondence
 MAX_DESCRIPTORS = 1000  # strongest features used for descriptor metrics (bounds the O(N²) matching)
+SINGLE_FRAME = ("texturedness", "dissimilarity", "density", "distinctiveness")  # what compute_metrics always gives
+TEMPORAL = ("motion", "stability", "repeatability")  # what it adds with the previous frame's features
 _SHIFTS = [(dy, dx) for dy in (-SHIFT, 0, SHIFT) for dx in (-SHIFT, 0, SHIFT) if (dy, dx) != (0, 0)]
 
 

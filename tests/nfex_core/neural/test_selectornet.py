@@ -68,3 +68,39 @@ def test_the_blank_image_embedding_is_cached_and_equal_to_computing_it() -> None
     np.testing.assert_array_equal(other, net._embed(np.zeros((24, 80), np.float32)))
     image = np.random.default_rng(0).random((48, 160)).astype(np.float32)
     assert not np.array_equal(net.embed(image), first)  # a real frame is not taken for the blank one
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000), width=st.floats(0.0, 3.0))
+def test_logit_bounds_hold_every_point_of_the_box(seed: int, width: float) -> None:
+    """Interval bound propagation is sound: the logits of any numeric input inside the box (corners included)
+    lie within the bounds, and a box of width 0 gives the network's own logits."""
+    n_numeric = 12
+    net = SelectorNet(init_weights(n_numeric=n_numeric, n_outputs=5, seed=seed % 97))
+    rng = np.random.default_rng(seed)
+    image = rng.uniform(size=IMAGE_HW).astype(np.float32)
+    low = rng.normal(size=n_numeric).astype(np.float32)
+    high = low + np.float32(width) * rng.uniform(size=n_numeric).astype(np.float32)
+    lo, hi = net.logit_bounds(image, low, high)
+    assert np.all(lo <= hi)
+    points = [low, high, *(low + (high - low) * rng.uniform(size=n_numeric).astype(np.float32) for _ in range(30))]
+    points += [np.where(rng.uniform(size=n_numeric) < 0.5, low, high) for _ in range(10)]  # corners
+    for x in points:
+        z = net.logits(image, x)
+        assert np.all(z >= lo - 1e-4) and np.all(z <= hi + 1e-4)
+    lo0, hi0 = net.logit_bounds(image, low, low)
+    np.testing.assert_allclose(lo0, net.logits(image, low), atol=1e-4)
+    np.testing.assert_allclose(hi0, lo0, atol=1e-9)
+
+
+def test_numeric_box_spans_the_unknown_metrics_only() -> None:
+    from nfex_core.neural.selectornet import numeric_box, numeric_input
+
+    ctx, stats = np.array([1.0, 0.0], np.float32), np.array([0.5], np.float32)
+    names, extractors = ("a", "b", "c"), ("ORB", "SIFT")
+    known = {"ORB": {"a": 0.2, "b": 0.4, "c": 0.6}}
+    low, high = numeric_box(ctx, stats, known, {"SIFT": ("a", "b")}, extractors, names)
+    every = numeric_input(ctx, stats, True, {**known, "SIFT": {"a": 1.0, "b": 1.0}}, extractors, names)
+    none = numeric_input(ctx, stats, True, {**known, "SIFT": {"a": 0.0, "b": 0.0, "c": 0.0}}, extractors, names)
+    np.testing.assert_array_equal(high, every)  # SIFT's a and b at 1, c absent (0), its bit set
+    np.testing.assert_array_equal(low, none)
