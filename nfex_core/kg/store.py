@@ -27,7 +27,7 @@ from ..config import Settings
 from ..errors import BadInput, Conflict, NotFound, PreconditionFailed, StoreUnavailable, ValidationFailed
 from ..namespaces import NFEX, PREFIXES
 from .backends import Backend, SelectResult, open_backend
-from .changes import ChangeSet, graph_triples
+from .changes import ChangeSet, graph_triples, present
 from .claims import META as CLAIMS_META
 from .claims import Rival, ttl_for
 from .claims import release as release_claim
@@ -198,14 +198,7 @@ class KnowledgeGraph:
 
     # ------------------------------------------------------------------ writing
     def _present(self, triples: Iterable[Triple]) -> set[Triple]:
-        present: set[Triple] = set()
-        items = list(triples)
-        for i in range(0, len(items), 500):
-            batch = items[i : i + 500]
-            values = " ".join(f"({n3(s)} {n3(p)} {n3(o)})" for s, p, o in batch)
-            res = self.backend.select(f"SELECT ?s ?p ?o WHERE {{ VALUES (?s ?p ?o) {{ {values} }} ?s ?p ?o }}")
-            present.update((r["s"], r["p"], r["o"]) for r in res.rows)
-        return present
+        return present(self.backend, triples)
 
     def _effective(self, change: ChangeSet) -> ChangeSet:
         """Drop additions already present and removals of absent triples: versions record real changes."""
