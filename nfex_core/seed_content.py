@@ -5,7 +5,8 @@ compiling the DSL programs, skolemising blank nodes) takes seconds; reading its 
 fraction of one. The result depends only on the files and the code that read them, so it is kept in
 ``NFEX_SEED_CACHE`` (default ``$XDG_CACHE_HOME/nfex/seed``) as ``<digest>.nt``, sorted N-Triples, where
 the digest covers everything that determines it: every file under the home's ontology/ and rules/, the
-home's path, nfex_core's sources, the DSL grammar, and the rdflib and pyoxigraph versions. An edited file,
+home's path, nfex_core's sources, the DSL grammar, the rdflib and pyoxigraph versions, and — when a file
+holds an IRI without a scheme (a Turtle file), which rdflib resolves against it — the working directory. An edited file,
 another nFEX or another rdflib gives another name, so a stale file is never read; a file is written only
 after it was read back to the same triples (tmp file + rename: concurrent writers are harmless), and a
 folder that cannot be written only costs the computation each time.
@@ -15,6 +16,7 @@ from __future__ import annotations
 import hashlib
 import logging
 import os
+import re
 import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -32,6 +34,7 @@ from .rules.dsl.parser import GRAMMAR
 log = logging.getLogger("nfex.seed")
 PACKAGE = Path(__file__).resolve().parent
 FORMAT = b"nfex-seed-1"  # bump when the file's layout or meaning changes
+RELATIVE_IRI = re.compile(rb"<(?![A-Za-z][A-Za-z0-9+.\-]*:)[^<>\s\"{}|^`\\]*>")  # an IRI without a scheme
 
 
 @dataclass(frozen=True)
@@ -69,13 +72,18 @@ def digest(settings: Settings) -> str:
     """What determines the seed (module docstring), hashed."""
     h = hashlib.sha256(FORMAT)
     h.update(f"\0{rdflib.__version__}\0{ox.__version__}\0{settings.home.resolve()}".encode())
+    relative = False
     roots = [(settings.ontology_dir, "*"), (settings.rules_dir, "*"), (PACKAGE, "*.py")]
     for root, pattern in roots:
         for path in _files(root, pattern):
+            data = path.read_bytes()
             h.update(f"\0{root}\0{path.relative_to(root)}\0".encode())
-            h.update(path.read_bytes())
+            h.update(data)
+            relative = relative or (path.suffix == ".ttl" and RELATIVE_IRI.search(data) is not None)
     if GRAMMAR.is_file():
         h.update(b"\0grammar\0" + GRAMMAR.read_bytes())
+    if relative:  # rdflib resolves a relative IRI against the working directory
+        h.update(f"\0cwd\0{Path.cwd()}".encode())
     return h.hexdigest()
 
 

@@ -41,3 +41,17 @@ def test_a_cache_that_cannot_be_written_costs_only_time(tmp_path: Path) -> None:
     (tmp_path / "a-file").write_text("not a folder")
     content = seed_content(settings, seed_graph)
     assert not content.cached and content.triples() == graph_triples(seed_graph(settings))
+
+
+def test_a_relative_iri_ties_the_seed_to_the_working_directory(tmp_path: Path, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    settings = settings_in(tmp_path)
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    monkeypatch.chdir(tmp_path / "a")
+    here = digest(settings)
+    monkeypatch.chdir(tmp_path / "b")
+    assert digest(settings) == here  # the shipped files name every IRI in full
+    (settings.ontology_dir / "local.ttl").write_text("<note> <http://www.w3.org/2000/01/rdf-schema#label> \"x\" .\n")
+    there = digest(settings)
+    monkeypatch.chdir(tmp_path / "a")
+    assert digest(settings) != there
