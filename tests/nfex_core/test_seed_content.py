@@ -5,6 +5,8 @@ import dataclasses
 import shutil
 from pathlib import Path
 
+import pytest
+
 from nfex_core.config import Settings
 from nfex_core.kg.changes import graph_triples
 from nfex_core.knowledge import seed_graph
@@ -43,7 +45,7 @@ def test_a_cache_that_cannot_be_written_costs_only_time(tmp_path: Path) -> None:
     assert not content.cached and content.triples() == graph_triples(seed_graph(settings))
 
 
-def test_a_relative_iri_ties_the_seed_to_the_working_directory(tmp_path: Path, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+def test_a_relative_iri_ties_the_seed_to_the_working_directory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     settings = settings_in(tmp_path)
     (tmp_path / "a").mkdir()
     (tmp_path / "b").mkdir()
