@@ -172,6 +172,16 @@ class KnowledgeGraph:
     def shapes(self) -> Shapes:
         return self.cached("shapes", lambda: extract_shapes(self.backend))
 
+    def _carry_shapes(self, change: ChangeSet, head: int) -> None:
+        """The shapes of ``head`` are those of ``head + 1`` when ``change`` leaves them alone: a change that
+        touches no shape node, no ``sh:`` predicate and no ``sh:`` type cannot add, remove or alter one
+        (``touches_shapes`` against ``shapes_closure``). Spares each commit a re-extraction, and pySHACL a
+        re-parse of the SPARQL constraints the fresh blank nodes of a new extraction would change."""
+        with self._cache_lock:
+            hit = self._cache.get("shapes")
+            if hit is not None and hit[0] == head and not touches_shapes(change, hit[1]):
+                self._cache["shapes"] = (head + 1, hit[1])
+
     def vocabulary(self) -> Vocabulary:
         return self.cached("vocabulary", lambda: Vocabulary.load(self))
 
@@ -260,6 +270,7 @@ class KnowledgeGraph:
                 _, effective, report = checked
                 outcome = self._try_commit(effective, head, author, message)
                 if outcome is None:
+                    self._carry_shapes(effective, head)
                     for listener in self._listeners:
                         listener(head + 1)
                     return CommitResult(
