@@ -35,6 +35,7 @@ from rdflib.term import BNode, Literal, URIRef, Variable
 from .backends import Backend
 from .sparql_guard import decode_escapes, tokens
 from .terms import n3
+from .validation import RDFLIB_SPARQL_PARSER
 
 Pattern = tuple[URIRef | None, URIRef | None, URIRef | None]
 """A triple pattern to copy: None matches any term."""
@@ -110,7 +111,8 @@ def reach(update: str) -> Reach | None:
     from rdflib.plugins.sparql.parser import parseUpdate
 
     try:
-        operations = translateUpdate(parseUpdate(update)).algebra
+        with RDFLIB_SPARQL_PARSER:
+            operations = translateUpdate(parseUpdate(update)).algebra
     except Exception:  # rdflib's parser raises several unrelated types
         return None
     patterns: set[Pattern] = set()
