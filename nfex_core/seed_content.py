@@ -4,9 +4,11 @@ Computing the seed (``knowledge.seed_graph``: rdflib parsing ontology/ with its 
 compiling the DSL programs, skolemising blank nodes) takes seconds; reading its result back takes a
 fraction of one. The result depends only on the files and the code that read them, so it is kept in
 ``NFEX_SEED_CACHE`` (default ``$XDG_CACHE_HOME/nfex/seed``) as ``<digest>.nt``, sorted N-Triples, where
-the digest covers everything that determines it: every file under the home's ontology/ and rules/, the
-home's path, nfex_core's sources, the DSL grammar, the rdflib and pyoxigraph versions, and — when a file
-holds an IRI without a scheme (a Turtle file), which rdflib resolves against it — the working directory. An edited file,
+the digest covers everything that determines it: every file under the home's ontology/ and rules/ (by its
+path there; a file that resolves outside the home also by its absolute path, which a program's
+``nfex:sourceFile`` records), nfex_core's sources, the DSL grammar, the rdflib and pyoxigraph versions,
+and — when a Turtle file holds an IRI without a scheme, which rdflib resolves against it — the working
+directory. The folder keeps the ``KEEP`` most recently used seeds. An edited file,
 another nFEX or another rdflib gives another name, so a stale file is never read; a file is written only
 after it was read back to the same triples (tmp file + rename: concurrent writers are harmless), and a
 folder that cannot be written only costs the computation each time.
@@ -34,6 +36,7 @@ from .rules.dsl.parser import GRAMMAR
 log = logging.getLogger("nfex.seed")
 PACKAGE = Path(__file__).resolve().parent
 FORMAT = b"nfex-seed-1"  # bump when the file's layout or meaning changes
+KEEP = 4  # seeds kept in the cache folder
 RELATIVE_IRI = re.compile(rb"<(?![A-Za-z][A-Za-z0-9+.\-]*:)[^<>\s\"{}|^`\\]*>")  # an IRI without a scheme
 
 
@@ -71,15 +74,18 @@ def _files(root: Path, pattern: str) -> list[Path]:
 def digest(settings: Settings) -> str:
     """What determines the seed (module docstring), hashed."""
     h = hashlib.sha256(FORMAT)
-    h.update(f"\0{rdflib.__version__}\0{ox.__version__}\0{settings.home.resolve()}".encode())
+    h.update(f"\0{rdflib.__version__}\0{ox.__version__}".encode())
+    home = settings.home.resolve()
     relative = False
-    roots = [(settings.ontology_dir, "*"), (settings.rules_dir, "*"), (PACKAGE, "*.py")]
-    for root, pattern in roots:
+    roots = [("ontology", settings.ontology_dir, "*"), ("rules", settings.rules_dir, "*"), ("nfex_core", PACKAGE, "*.py")]
+    for name, root, pattern in roots:
         for path in _files(root, pattern):
             data = path.read_bytes()
-            h.update(f"\0{root}\0{path.relative_to(root)}\0".encode())
+            h.update(f"\0{name}\0{path.relative_to(root).as_posix()}\0".encode())
             h.update(data)
             relative = relative or (path.suffix == ".ttl" and RELATIVE_IRI.search(data) is not None)
+            if name != "nfex_core" and not path.resolve().is_relative_to(home):
+                h.update(f"\0outside\0{path.resolve()}".encode())  # a program there is named by its absolute path
     if GRAMMAR.is_file():
         h.update(b"\0grammar\0" + GRAMMAR.read_bytes())
     if relative:  # rdflib resolves a relative IRI against the working directory
@@ -93,6 +99,7 @@ def seed_content(settings: Settings, compute: Callable[[Settings], rdflib.Graph]
     path = settings.seed_cache / f"{key}.nt"
     try:
         text = path.read_text(encoding="utf-8")
+        os.utime(path)  # recently used: kept by _prune
     except OSError:
         pass
     else:
@@ -119,8 +126,16 @@ def _store(path: Path, lines: tuple[str, ...]) -> None:
             f.write("\n".join(lines) + "\n")
         os.replace(tmp, path)
         tmp = None
+        _prune(path.parent)
     except OSError as e:
         log.warning("cannot cache the seed in %s: %s", path.parent, e)
     finally:
         if tmp is not None:
             Path(tmp).unlink(missing_ok=True)
+
+
+def _prune(folder: Path) -> None:
+    """Keep the KEEP most recently used seeds (each edit of ontology/ or rules/ makes another)."""
+    files = sorted(folder.glob("*.nt"), key=lambda p: p.stat().st_mtime, reverse=True)
+    for old in files[KEEP:]:
+        old.unlink(missing_ok=True)

@@ -10,7 +10,7 @@ import pytest
 from nfex_core.config import Settings
 from nfex_core.kg.changes import graph_triples
 from nfex_core.knowledge import seed_graph
-from nfex_core.seed_content import digest, seed_content
+from nfex_core.seed_content import KEEP, digest, seed_content
 
 
 def settings_in(tmp_path: Path) -> Settings:
@@ -57,3 +57,20 @@ def test_a_relative_iri_ties_the_seed_to_the_working_directory(tmp_path: Path, m
     there = digest(settings)
     monkeypatch.chdir(tmp_path / "a")
     assert digest(settings) != there
+
+
+def test_the_same_files_elsewhere_are_the_same_seed(tmp_path: Path) -> None:
+    """A copy of the home in another folder (each test session makes one) reads the same cached seed."""
+    here = settings_in(tmp_path / "here")
+    there = settings_in(tmp_path / "there")
+    assert digest(here) == digest(there)
+
+
+def test_the_cache_keeps_the_most_recently_used_seeds(tmp_path: Path) -> None:
+    settings = settings_in(tmp_path)
+    settings.seed_cache.mkdir()
+    for i in range(KEEP + 2):
+        (settings.seed_cache / f"old{i}.nt").write_text("")
+    first = seed_content(settings, seed_graph)
+    kept = sorted(p.name for p in settings.seed_cache.iterdir())
+    assert len(kept) == KEEP and f"{first.digest}.nt" in kept
