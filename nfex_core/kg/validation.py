@@ -24,6 +24,7 @@ the store whether an instance survives the change.
 """
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -43,6 +44,8 @@ from .terms import Triple, is_skolem, n3
 FORWARD_DEPTH = 3
 BACKWARD_DEPTH = 2
 CHUNK = 400
+RDFLIB_SPARQL_PARSER = threading.Lock()
+"""Held while rdflib parses SPARQL: its pyparsing grammar is shared and not thread-safe (RDFLib/rdflib#1282)."""
 
 
 @dataclass(frozen=True)
@@ -213,7 +216,8 @@ class PreparedQueryGraph(rdflib.Graph):
             if prepared is None:
                 if len(self._prepared) > 512:
                     self._prepared.clear()
-                prepared = self._prepared[key] = prepareQuery(query_object, initNs=dict(init_ns))
+                with RDFLIB_SPARQL_PARSER:
+                    prepared = self._prepared[key] = prepareQuery(query_object, initNs=dict(init_ns))
             query_object = prepared
         return super().query(query_object, *args, **kwargs)
 

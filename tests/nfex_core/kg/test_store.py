@@ -166,3 +166,15 @@ def test_seed_sync_removes_what_left_the_files(kg: KnowledgeGraph, tmp_path, mon
     labels = {str(o) for o in kg.data_graph().objects(NFEX.texturedness, RDFS.label)}
     assert labels == {"texture variance"}
     assert (NFEX.cfg1, NFEX.ofExtractor, NFEX.ORB) in kg.data_graph()
+
+
+def test_shapes_carry_over_a_commit_that_leaves_them_alone(kg: KnowledgeGraph) -> None:
+    from nfex_core.kg.validation import extract_shapes
+
+    before = kg.shapes()
+    kg.add(parse_rdf(CONFIG), author="a")
+    assert kg.shapes() is before and kg.shapes().nodes == extract_shapes(kg.backend).nodes
+    shape = P + "@prefix sh: <http://www.w3.org/ns/shacl#> . nfex:TestShape a sh:NodeShape ; sh:targetClass nfex:Nothing ."
+    kg.add(parse_rdf(shape), author="a")
+    after = kg.shapes()
+    assert after is not before and NFEX.TestShape in after.nodes and after.nodes == extract_shapes(kg.backend).nodes

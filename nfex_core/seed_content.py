@@ -1,0 +1,141 @@
+"""The seed as N-Triples, computed once per content and then read from a cache.
+
+Computing the seed (``knowledge.seed_graph``: rdflib parsing ontology/ with its 1.2 MB of measurements,
+compiling the DSL programs, skolemising blank nodes) takes seconds; reading its result back takes a
+fraction of one. The result depends only on the files and the code that read them, so it is kept in
+``NFEX_SEED_CACHE`` (default ``$XDG_CACHE_HOME/nfex/seed``) as ``<digest>.nt``, sorted N-Triples, where
+the digest covers everything that determines it: every file under the home's ontology/ and rules/ (by its
+path there; a file that resolves outside the home also by its absolute path, which a program's
+``nfex:sourceFile`` records), nfex_core's sources, the DSL grammar, the rdflib and pyoxigraph versions,
+and — when a Turtle file holds an IRI without a scheme, which rdflib resolves against it — the working
+directory. The folder keeps the ``KEEP`` most recently used seeds. An edited file,
+another nFEX or another rdflib gives another name, so a stale file is never read; a file is written only
+after it was read back to the same triples (tmp file + rename: concurrent writers are harmless), and a
+folder that cannot be written only costs the computation each time.
+"""
+from __future__ import annotations
+
+import hashlib
+import logging
+import os
+import re
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import pyoxigraph as ox
+import rdflib
+
+from .config import Settings
+from .kg.changes import graph_triples
+from .kg.history import ChangeText
+from .kg.terms import Triple, from_oxigraph, triple_n3, triple_nt
+from .rules.dsl.parser import GRAMMAR
+
+log = logging.getLogger("nfex.seed")
+PACKAGE = Path(__file__).resolve().parent
+FORMAT = b"nfex-seed-1"  # bump when the file's layout or meaning changes
+KEEP = 4  # seeds kept in the cache folder
+RELATIVE_IRI = re.compile(rb"<(?![A-Za-z][A-Za-z0-9+.\-]*:)[^<>\s\"{}|^`\\]*>")  # an IRI without a scheme
+
+
+@dataclass(frozen=True)
+class SeedContent:
+    """The seed's triples as sorted statements, one triple each: N-Triples lines (``triple_nt``)."""
+
+    lines: tuple[str, ...]
+    digest: str
+    cached: bool = False  # read from the cache rather than computed
+    computed: frozenset[Triple] | None = None  # the triples, when computed here
+
+    def text(self) -> ChangeText:
+        """What ``KnowledgeGraph.load_validated`` writes."""
+        return ChangeText(self.lines)
+
+    def triples(self) -> frozenset[Triple]:
+        return self.computed if self.computed is not None else parse_lines(self.lines)
+
+
+def parse_lines(lines: tuple[str, ...] | list[str]) -> frozenset[Triple]:
+    data = "\n".join(lines).encode("utf-8")
+    return frozenset(
+        (from_oxigraph(q.subject), from_oxigraph(q.predicate), from_oxigraph(q.object))
+        for q in ox.parse(data, format=ox.RdfFormat.N_TRIPLES)
+    )
+
+
+def _files(root: Path, pattern: str) -> list[Path]:
+    if not root.is_dir():
+        return []
+    return sorted(p for p in root.rglob(pattern) if p.is_file() and "__pycache__" not in p.parts)
+
+
+def digest(settings: Settings) -> str:
+    """What determines the seed (module docstring), hashed."""
+    h = hashlib.sha256(FORMAT)
+    h.update(f"\0{rdflib.__version__}\0{ox.__version__}".encode())
+    home = settings.home.resolve()
+    relative = False
+    roots = [("ontology", settings.ontology_dir, "*"), ("rules", settings.rules_dir, "*"), ("nfex_core", PACKAGE, "*.py")]
+    for name, root, pattern in roots:
+        for path in _files(root, pattern):
+            data = path.read_bytes()
+            h.update(f"\0{name}\0{path.relative_to(root).as_posix()}\0".encode())
+            h.update(data)
+            relative = relative or (path.suffix == ".ttl" and RELATIVE_IRI.search(data) is not None)
+            if name != "nfex_core" and not path.resolve().is_relative_to(home):
+                h.update(f"\0outside\0{path.resolve()}".encode())  # a program there is named by its absolute path
+    if GRAMMAR.is_file():
+        h.update(b"\0grammar\0" + GRAMMAR.read_bytes())
+    if relative:  # rdflib resolves a relative IRI against the working directory
+        h.update(f"\0cwd\0{Path.cwd()}".encode())
+    return h.hexdigest()
+
+
+def seed_content(settings: Settings, compute: Callable[[Settings], rdflib.Graph]) -> SeedContent:
+    """The triples of ``compute(settings)`` (the seed graph) as N-Triples, from the cache when it has them."""
+    key = digest(settings)
+    path = settings.seed_cache / f"{key}.nt"
+    try:
+        text = path.read_text(encoding="utf-8")
+        os.utime(path)  # recently used: kept by _prune
+    except OSError:
+        pass
+    else:
+        return SeedContent(tuple(line for line in text.split("\n") if line), key, cached=True)
+    triples = graph_triples(compute(settings))
+    lines = tuple(sorted(triple_nt(t) for t in triples))
+    try:
+        same = parse_lines(lines) == triples
+    except (SyntaxError, ValueError):
+        same = False
+    if not same:  # a term N-Triples cannot carry as rdflib holds it: write it as commit does, and cache nothing
+        log.warning("the seed does not read back from N-Triples unchanged; it is not cached")
+        return SeedContent(tuple(sorted(triple_n3(t) for t in triples)), key, computed=triples)
+    _store(path, lines)
+    return SeedContent(lines, key, computed=triples)
+
+
+def _store(path: Path, lines: tuple[str, ...]) -> None:
+    tmp: str | None = None
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=path.name, suffix=".tmp", dir=path.parent)
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write("\n".join(lines) + "\n")
+        os.replace(tmp, path)
+        tmp = None
+        _prune(path.parent)
+    except OSError as e:
+        log.warning("cannot cache the seed in %s: %s", path.parent, e)
+    finally:
+        if tmp is not None:
+            Path(tmp).unlink(missing_ok=True)
+
+
+def _prune(folder: Path) -> None:
+    """Keep the KEEP most recently used seeds (each edit of ontology/ or rules/ makes another)."""
+    files = sorted(folder.glob("*.nt"), key=lambda p: p.stat().st_mtime, reverse=True)
+    for old in files[KEEP:]:
+        old.unlink(missing_ok=True)
