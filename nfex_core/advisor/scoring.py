@@ -160,7 +160,7 @@ class Scorer:
                 if bound is not None and bound.allowed:
                     return Scored(settled(decision, params, bound, known, done), state(c.extractor for c in first), "selectornet")
                 if bound is None:
-                    run(todo[: max(1, self.threads)])
+                    run(todo[:1])  # cheapest first: each extraction may settle the choice
                     continue
             else:
                 scored = [done[c.extractor][0] for c in everything if c.extractor in done]

@@ -101,21 +101,23 @@ class SelectorNet:
             h = np.maximum(conv2d_hwc(h, w[f"{n}.weight"], w[f"{n}.bias"], matrix=self._conv[n]), 0.0)  # type: ignore[attr-defined]
         return h.mean(axis=(0, 1))
 
-    def logits(self, image: np.ndarray, numeric: np.ndarray) -> np.ndarray:
+    def logits(self, image: np.ndarray, numeric: np.ndarray, embedded: np.ndarray | None = None) -> np.ndarray:
+        """The logits; ``embedded``: ``embed(image)`` when the caller already has it."""
         w, fct = self._w, self._fct  # type: ignore[attr-defined]
-        z = np.concatenate([self.embed(image), numeric.astype(np.float32)])
+        z = np.concatenate([self.embed(image) if embedded is None else embedded, numeric.astype(np.float32)])
         z = np.maximum(z @ fct[0] + w["fc1.bias"], 0.0)
         z = np.maximum(z @ fct[1] + w["fc2.bias"], 0.0)
         return z @ fct[2] + w["fc3.bias"]
 
-    def logit_bounds(self, image: np.ndarray, low: np.ndarray, high: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def logit_bounds(self, image: np.ndarray, low: np.ndarray, high: np.ndarray,
+                     embedded: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Bounds on every logit over all numeric inputs with low ≤ numeric ≤ high, the image fixed: interval
         bound propagation (Gowal et al. 2018). Through an affine layer the box with centre c and radius r
         maps to centre W c + b and radius |W| r; ReLU is monotone, so it maps the bounds themselves. Sound
         (every input in the box gives logits inside), computed in float64 so rounding stays far below the
-        margin a caller demands."""
+        margin a caller demands. ``embedded``: ``embed(image)`` when the caller already has it."""
         w, fct = self._w, self._fct  # type: ignore[attr-defined]
-        g = self.embed(image).astype(np.float64)
+        g = (self.embed(image) if embedded is None else embedded).astype(np.float64)
         lo = np.concatenate([g, low.astype(np.float64)])
         hi = np.concatenate([g, high.astype(np.float64)])
         for i, n in enumerate(FCS):

@@ -56,6 +56,7 @@ class NeuralStep:
     _u: np.ndarray | None = None
     _ctx: np.ndarray | None = None
     _stats: np.ndarray | None = None
+    _embedded: tuple[np.ndarray | None, np.ndarray, np.ndarray] | None = None  # (frame, its network input, g)
 
     @property
     def selector_extractors(self) -> frozenset[str]:
@@ -115,10 +116,10 @@ class NeuralStep:
         inp = self.model.inputs
         known = self.model.selector_extractors
         net = self.model.selectornet
-        img = prepare_image(image) if image is not None else np.zeros((48, 160), np.float32)
+        img, g = self._embedding(image)
         metrics = {x: m for x, m in metrics.items() if x in known}
         num = numeric_input(self._ctx, self._stats, image is not None, metrics, inp.extractors, inp.metrics)
-        logits = net.logits(img, num)
+        logits = net.logits(img, num, g)
         allowed = [x for x in candidates if x in known]
         full = masked_probabilities(logits, inp.extractors, sorted(known))
         top = max(full, key=full.__getitem__) if full else None
@@ -133,6 +134,14 @@ class NeuralStep:
         return masked_probabilities(logits, inp.extractors, allowed)
 
 
+    def _embedding(self, image: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """The network's image input and its CNN embedding, computed once per frame of this request."""
+        assert self.model is not None and self.model.selectornet is not None
+        if self._embedded is None or self._embedded[0] is not image:
+            img = prepare_image(image) if image is not None else np.zeros((48, 160), np.float32)
+            self._embedded = (image, img, self.model.selectornet.embed(img))
+        return self._embedded[1], self._embedded[2]
+
     def bounded_choice(
         self, image: np.ndarray, metrics: Mapping[str, Mapping[str, float]], unknown: Mapping[str, Sequence[str]],
         candidates: Sequence[str],
@@ -146,7 +155,8 @@ class NeuralStep:
         known = sorted(self.model.selector_extractors)
         metrics = {x: m for x, m in metrics.items() if x in known}
         low, high = numeric_box(self._ctx, self._stats, metrics, unknown, inp.extractors, inp.metrics)
-        lo, hi = self.model.selectornet.logit_bounds(prepare_image(image), low, high)
+        img, g = self._embedding(image)
+        lo, hi = self.model.selectornet.logit_bounds(img, low, high, g)
         at = {x: inp.extractors.index(x) for x in known}
         top = max(known, key=lambda x: lo[at[x]])
         if any(lo[at[top]] - hi[at[x]] <= LOGIT_MARGIN for x in known if x != top):
