@@ -11,6 +11,7 @@ Nothing else in nFEX reads the environment: settings are passed down explicitly.
 | NFEX_MODELS         | the trained-model folder                                         | ``$NFEX_HOME/models``           |
 | NFEX_NEURAL         | symbolic, paramnet, selectornet or both (neural.serve)           | both                            |
 | NFEX_SCORE_THREADS  | candidates extracted side by side when scoring a frame           | the CPU count, at most 8        |
+| NFEX_SCORE_ALL      | 1: extract and score every candidate, not only those that can win | 0 (same α* and Θ′, slower)      |
 | NFEX_AUTHOR         | the author recorded on CLI writes                                | ``<user> (cli)``                |
 | NFEX_STORE_UPDATE   | a SPARQL server's update endpoint                                | the query URL's last segment → ``update`` |
 | NFEX_STORE_USER, NFEX_STORE_PASSWORD | credentials for the SPARQL server (Basic or Digest, as it asks) | none              |
@@ -82,6 +83,7 @@ class Settings:
     models: Path
     neural: str = "both"
     score_threads: int = 0  # 0: the CPU count, at most 8
+    score_all: bool = False  # advisor.scoring.Scorer: exhaustive scoring, for comparisons
     author: str = ""
     store_update: str | None = None
     store_user: str | None = None
@@ -104,6 +106,7 @@ class Settings:
             models=Path(env.get("NFEX_MODELS") or home / "models"),
             neural=env.get("NFEX_NEURAL") or "both",
             score_threads=int(env.get("NFEX_SCORE_THREADS") or 0),
+            score_all=env.get("NFEX_SCORE_ALL", "0") == "1",
             author=env.get("NFEX_AUTHOR") or "",
             store_update=env.get("NFEX_STORE_UPDATE") or None,
             store_user=env.get("NFEX_STORE_USER") or None,

@@ -81,7 +81,7 @@ class Advisor:
     ``background``: compile new graph versions on a background thread while the last snapshot answers
     (snapshots.py); off, a selection after a commit waits for its compile (read-your-writes).
     ``exhaustive_scoring``: extract and score every candidate on a frame, not only those that can still win
-    (scoring.Scorer; the same α* and Θ′, slower: for comparisons)."""
+    (scoring.Scorer; the same α* and Θ′, slower: for comparisons; default: the settings', NFEX_SCORE_ALL)."""
 
     def __init__(
         self,
@@ -94,10 +94,10 @@ class Advisor:
         score_threads: int | None = None,
         scope: EvidenceScope | None = None,
         background: bool = False,
-        exhaustive_scoring: bool = False,
+        exhaustive_scoring: bool | None = None,
     ) -> None:
         settings = kg.settings
-        self.exhaustive_scoring = exhaustive_scoring
+        self.exhaustive_scoring = settings.score_all if exhaustive_scoring is None else exhaustive_scoring
         self.scope = scope or EvidenceScope()
         if not self.scope.empty and getattr(kg, "scope", None) != self.scope:
             kg = scoped_graph(kg, self.scope)  # every reader of measurements then honours the scope
