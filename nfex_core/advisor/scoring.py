@@ -146,10 +146,10 @@ class Scorer:
             return (*SINGLE_FRAME, *TEMPORAL) if temporal else SINGLE_FRAME
 
         everything = list(params.candidates.values())
-        if exhaustive:
-            run(everything)
         known = nn.selector_extractors if nn.selectornet else frozenset()
         first = sorted((c for c in everything if c.extractor in known), key=lambda c: expected_ms(decision, c))
+        if exhaustive:  # SelectorNet's candidates, or all; the rest below if it does not decide
+            run(first or everything)
         # SelectorNet is masked to what it was trained on: its candidates are scored first; if it decides, the
         # others (probability 0 whatever their F_metrics) are not extracted at all
         while first:
@@ -175,13 +175,13 @@ class Scorer:
         skipped: dict[str, str] = {}
         while waiting:
             leader = max((s for s, _ in done.values()), key=lambda s: s.score if s.score is not None else -math.inf, default=None)
-            if leader is not None and leader.score is not None:
+            if leader is not None and leader.score is not None and not exhaustive:
                 for c in [c for c in waiting if ceiling[c.extractor] < leader.score - SCORE_MARGIN]:
                     skipped[c.extractor] = (f"cannot overtake {leader.extractor} ({leader.score:.4f}): its score is at most "
                                             f"{ceiling[c.extractor]:.4f} whatever its metrics")
                 waiting = [c for c in waiting if c.extractor not in skipped]
             # the most promising alone first (it sets the bar), then side by side
-            wave = 1 if not done else max(1, self.threads)
+            wave = 1 if not done and not exhaustive else max(1, self.threads)
             run(waiting[:wave])
             waiting = waiting[wave:]
         # listed in the order exhaustive scoring lists them (SelectorNet's first), which breaks exact ties
@@ -230,7 +230,7 @@ def settled(decision: Decision, params: Parameters, bound: BoundedChoice, known:
                    "whatever the unmeasured metrics")
             out.append(replace(base, score=None, evidence=replace(base.evidence, not_scored=why, score_without_net=base.score)))
         else:
-            out.append(base)
+            out.append(replace(base, score=0.0))  # not trained on: probability 0, as by_network lists it
     return out
 
 

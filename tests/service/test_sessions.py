@@ -30,7 +30,8 @@ def test_session_lifecycle(service: Service) -> None:
         assert [x.json()["session"]["temporal"] for x in results] == [False, True]
         state = httpx.get(f"{service.url}/v1/sessions/{sid}").json()
         assert state["frames"] == 2 and state["has_previous"]
-        assert state["state_bytes"] > 240 * 320  # the scoring image and the candidates' keypoints and descriptors
+        # the scoring image, and the keypoints and descriptors of the candidates extracted on it (if any)
+        assert state["state_bytes"] >= 240 * 320
         assert "nfex_session_state_bytes" in httpx.get(service.url + "/metrics").text
     r = httpx.post(f"{service.url}/v1/sessions/{sid}/frames", json={"context": {}})
     assert_problem(r, 400, "bad-input")  # a stream frame needs an image

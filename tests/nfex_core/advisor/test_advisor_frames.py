@@ -81,7 +81,7 @@ def test_frame_statistics_are_computed_once_per_request(kg: KnowledgeGraph, data
 
 def test_when_selectornet_decides_the_extractors_it_never_saw_are_not_extracted(kg: KnowledgeGraph, data_dir: Path) -> None:
     image = cv2.imread(str(sorted((data_dir / KITTI).glob("*.png"))[40]), cv2.IMREAD_GRAYSCALE)
-    advisor = Advisor(kg, neural="selectornet")
+    advisor = Advisor(kg, neural="selectornet", exhaustive_scoring=True)  # every candidate SelectorNet knows scored
     known = advisor.neural.step(kg.vocabulary()).selector_extractors
     sel = advisor.select({"agent": "car"}, frame=image)
     assert sel.mode == "selectornet" and sel.extractor in known
@@ -93,3 +93,24 @@ def test_when_selectornet_decides_the_extractors_it_never_saw_are_not_extracted(
             assert c.score == 0.0 and not c.metrics and c.keypoints is None and c.evidence.not_scored
     assert set(known) - {c.extractor for c in sel.candidates} <= {p.extractor for p in sel.pruned}
     assert set(sel.state.features) == {c.extractor for c in sel.candidates if c.keypoints}  # type: ignore[union-attr]
+
+
+def test_when_bounds_settle_selectornet_nothing_that_cannot_win_is_extracted(kg: KnowledgeGraph, data_dir: Path) -> None:
+    """Scoring what can still win: α* carries its least probability over the unmeasured metrics; SelectorNet's
+    other candidates have no score and say why; the ones it never saw have probability 0, as above."""
+    image = cv2.imread(str(sorted((data_dir / KITTI).glob("*.png"))[40]), cv2.IMREAD_GRAYSCALE)
+    advisor = Advisor(kg, neural="selectornet")
+    known = advisor.neural.step(kg.vocabulary()).selector_extractors
+    sel = advisor.select({"agent": "car"}, frame=image)
+    exact = Advisor(kg, neural="selectornet", exhaustive_scoring=True).select({"agent": "car"}, frame=image)
+    assert (sel.extractor, sel.params, sel.mode) == (exact.extractor, exact.params, "selectornet")
+    best = sel.candidates[0]
+    assert best.extractor == sel.extractor and best.score is not None
+    assert 0.0 < best.score <= next(c.score for c in exact.candidates if c.extractor == sel.extractor) + 1e-9
+    for c in sel.candidates[1:]:
+        if c.extractor in known:
+            assert c.score is None and "cannot overtake" in (c.evidence.not_scored or "")
+        else:
+            assert c.score == 0.0 and c.keypoints is None
+    extracted = {c.extractor for c in sel.candidates if c.keypoints}
+    assert extracted < {c.extractor for c in exact.candidates if c.keypoints}  # something was not extracted
