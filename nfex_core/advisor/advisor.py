@@ -40,7 +40,8 @@ from .budget import Budget, resolve_budget
 from .choice import ranked
 from .conditions import Conditions, read_conditions
 from .params import Parameters, parameters
-from .scoring import SCORE_PIXELS, FrameState, Scored, Scorer, by_network, prior_scores
+from .reuse import Decided, ReuseTerms, reusable
+from .scoring import SCORE_PIXELS, FrameState, Scored, Scorer, by_network, downscale, prior_scores
 from .selection import CandidateScore, PrunedCandidate, Selection
 from .snapshots import Snapshots
 
@@ -56,6 +57,7 @@ class Snapshot:
     vocab: Vocabulary
     table: RuleTable
     programs: dict[str, int]
+    reuse: ReuseTerms = field(default_factory=ReuseTerms)
     taken_at: float = field(default_factory=time.monotonic)
     _registry: Any = None
     # context-only answers depend on the decision alone: computed once per context and snapshot
@@ -152,7 +154,7 @@ class Advisor:
         programs: dict[str, int] = {}
         for s in table.statements:
             programs[s.program] = programs.get(s.program, 0) + 1
-        return Snapshot(table.version, vocab, table, programs)
+        return Snapshot(table.version, vocab, table, programs, ReuseTerms.load(self.kg))
 
     # ------------------------------------------------------------------ the flow
     def select(
@@ -194,10 +196,32 @@ class Advisor:
         if nn.active:
             nn.prepare(cond.values, frame_stats(cond.stats))
             laps("neural")
+        key = (snap.version, tuple(sorted(cond.values.items())), budget.as_dict() if budget else None, nn.info.get("used"))
+        last = previous.decided if previous is not None else None
+        if cond.image is not None and last is not None and previous is not None:
+            from ..vision.statistics import FRAME_KEYS
+
+            if reusable(snap.reuse, last, key, cond.stats, FRAME_KEYS):
+                return self._reused(last, cond, previous, laps)
         params, scored = self._score(snap, decision, cond, budget, nn, previous)
         laps("selection")
         escalations = self._escalations(snap, decision, cond, budget, nn)
-        return self._answer(snap, decision, cond, budget, nn, params, scored, laps.timings, escalations)
+        answer = self._answer(snap, decision, cond, budget, nn, params, scored, laps.timings, escalations)
+        if snap.reuse.frames and answer.state is not None and cond.stats is not None:  # what the next frames may reuse
+            decided = Decided(key, dict(cond.stats), replace(answer, state=None))
+            answer = replace(answer, state=replace(answer.state, decided=decided))
+        return answer
+
+    def _reused(self, last: Decided, cond: Conditions, previous: FrameState, laps: _Laps) -> Selection:
+        """The last scored answer for a frame that has not moved (reuse.py); the stream keeps this frame's image,
+        so the next scored frame's temporal metrics compare neighbouring frames."""
+        assert cond.image is not None
+        small = downscale(cond.image, self.score_pixels)
+        laps("reused")
+        decided = replace(last, reused=last.reused + 1)
+        timings = dict(laps.timings, total=sum(laps.timings.values()))
+        return replace(last.selection, context=cond.entries, timings_ms=timings, reused=decided.reused,
+                       state=FrameState(small, {}, dict(previous.params), decided))
 
     def _escalations(self, snap: Snapshot, decision: Decision, cond: Conditions, budget: Budget | None,
                      nn: NeuralStep) -> tuple[CandidateScore, ...]:

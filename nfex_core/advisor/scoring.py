@@ -33,6 +33,7 @@ from ..kg.vocab import ExtractorSpec, Value, Vocabulary
 from ..neural.serve import BoundedChoice, NeuralStep
 from ..rules.types import Decision
 from .params import Candidate, Parameters
+from .reuse import Decided
 from .selection import CandidateEvidence, CandidateScore
 
 SCORE_PIXELS = 320 * 240  # QVGA: the scoring copy's pixel count, whatever the aspect ratio (KITTI: 503×152)
@@ -40,20 +41,30 @@ SCORE_PIXELS = 320 * 240  # QVGA: the scoring copy's pixel count, whatever the a
 
 @dataclass(frozen=True)
 class FrameState:
-    """What a stream keeps from one frame for the next: the scoring image, each extracted candidate's features,
-    and the Θ′ (at the scoring size) of the candidates that exhaustive scoring would have extracted but that
-    were skipped here — the next frame extracts those from ``image`` only if its own scoring needs them."""
+    """What a stream keeps from one frame for the next: the scoring image, the Θ′ (at the scoring size) of every
+    candidate exhaustive scoring would have extracted on it, the features of those actually extracted — the next
+    frame extracts the others from ``image`` only if its temporal metrics need them — and the decision a next
+    frame may reuse (reuse.py)."""
 
     image: np.ndarray
     features: dict[str, Any]
-    owed: dict[str, dict[str, Value]] = field(default_factory=dict)
+    params: dict[str, dict[str, Value]] = field(default_factory=dict)
+    decided: Decided | None = None
+
+    @property
+    def owed(self) -> dict[str, dict[str, Value]]:
+        """The candidates skipped on this frame that a next frame's temporal metrics may still need."""
+        return {x: p for x, p in self.params.items() if x not in self.features}
+
+    def has(self, extractor: str) -> bool:
+        return extractor in self.features or extractor in self.params
 
     def previous(self, extractor: str, shape: tuple[int, ...], registry: Any) -> tuple[Any, np.ndarray] | None:
         """``(features, image)`` of ``extractor`` on this frame for the temporal metrics of a frame of ``shape``."""
         if self.image.shape != shape:
             return None
-        if extractor not in self.features and extractor in self.owed:
-            self.features[extractor] = registry.extract(extractor, self.image, self.owed[extractor])
+        if extractor not in self.features and extractor in self.params:
+            self.features[extractor] = registry.extract(extractor, self.image, self.params[extractor])
         feats = self.features.get(extractor)
         return None if feats is None else (feats, self.image)
 
@@ -136,13 +147,12 @@ class Scorer:
 
         def state(extracted_by_exhaustive: Iterable[str]) -> FrameState:
             features = {x: feats for x, (_, feats) in done.items()}
-            owed = {x: at_scale[x] for x in extracted_by_exhaustive if x not in done}
-            return FrameState(small, features, owed)
+            return FrameState(small, features, {x: at_scale[x] for x in {*extracted_by_exhaustive, *done}})
 
         def will_have(x: str) -> tuple[str, ...]:
             """The metrics candidate ``x`` will have once extracted on this frame."""
             temporal = previous is not None and previous.image.shape == small.shape and \
-                (x in previous.features or x in previous.owed)
+                previous.has(x)
             return (*SINGLE_FRAME, *TEMPORAL) if temporal else SINGLE_FRAME
 
         everything = list(params.candidates.values())

@@ -122,6 +122,7 @@ class Selection:
     warnings: tuple[str, ...] = ()
     verification: Policy = NO_POLICY  # how the client (or the VO) judges each proposal's pair estimate
     escalations: tuple[CandidateScore, ...] = ()  # under a budget: candidates within the per-frame cap, best first
+    reused: int = 0  # in a stream: frames this answer has been reused without scoring (advisor/reuse.py); 0: scored here
 
     @property
     def proposals(self) -> tuple[CandidateScore, ...]:
@@ -164,4 +165,5 @@ class Selection:
             "warnings": list(self.warnings),
             "versions": self.versions,
             "timings_ms": {k: round(v, 3) for k, v in self.timings_ms.items()},
+            "reused": self.reused,
         }

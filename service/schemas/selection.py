@@ -212,6 +212,8 @@ class Selection(Out):
     warnings: list[str]
     versions: Versions
     timings_ms: dict[str, float]
+    reused: int = Field(0, description="In a session: how many frames in a row this answer has been reused because the "
+                                       "context and frame statistics did not move (nfex:decisionReuseFrames); 0: scored on this frame.")
     keypoints: Keypoints | None = Field(None, description="Only with ?keypoints=true and a frame.")
 
 

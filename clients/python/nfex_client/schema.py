@@ -331,6 +331,7 @@ class Selection(TypedDict):
     warnings: list[str]
     versions: Versions
     timings_ms: dict[str, float]
+    reused: NotRequired[int]
     keypoints: NotRequired[Keypoints | None]
 
 
@@ -360,6 +361,7 @@ class SessionSelection(TypedDict):
     warnings: list[str]
     versions: Versions
     timings_ms: dict[str, float]
+    reused: NotRequired[int]
     keypoints: NotRequired[Keypoints | None]
     session: StreamPosition
 

@@ -1,0 +1,66 @@
+"""Reusing a stream's decision: a frame whose context and statistics have not moved keeps the last scored answer.
+
+In a session (or any stream that passes the previous FrameState), frame t+1 is answered with frame t's α*, Θ′
+and candidates — without extraction or scoring — when
+
+    E(t+1) = E(t)  (every dimension, given or estimated),  the same graph version, budget and model,
+    max_k |s_k(t+1) − s_k(t)| / max(|s_k(t+1)|, |s_k(t)|, ε) ≤ nfex:decisionReuseChange   over FRAME_KEYS,
+    and the decision has been reused fewer than nfex:decisionReuseFrames times since it was scored.
+
+Both numbers are data (rules/pruning/thresholds.ttl). The shipped nfex:decisionReuseFrames is 0: reuse is
+off, so a stream's answers equal per-frame scoring (README's evaluations rely on it); a deployment that
+prefers throughput sets it (``nfex kg update``) and the Selection says ``reused: n`` for every reused answer.
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from ..kg.store import KnowledgeGraph
+
+EPSILON = 1e-6
+
+
+@dataclass(frozen=True)
+class ReuseTerms:
+    """``nfex:decisionReuseFrames`` (how many frames in a row may reuse a decision) and ``nfex:decisionReuseChange``
+    (the largest relative change of a frame statistic that still counts as not moved)."""
+
+    frames: int = 0
+    change: float = 0.0
+
+    @classmethod
+    def load(cls, kg: KnowledgeGraph) -> ReuseTerms:
+        from ..kg.terms import py
+
+        def value(name: str) -> float | None:
+            rows = kg.select(f"SELECT ?v WHERE {{ nfex:{name} nfex:value ?v }}").rows
+            return float(py(rows[0]["v"])) if rows else None
+
+        frames, change = value("decisionReuseFrames"), value("decisionReuseChange")
+        return cls(max(0, int(frames or 0)), max(0.0, change or 0.0))
+
+
+@dataclass(frozen=True)
+class Decided:
+    """A scored answer a stream may reuse: what it was decided under, the statistics it was decided on, the
+    answer (a Selection without its state) and how many frames have reused it so far."""
+
+    key: tuple[Any, ...]
+    stats: Mapping[str, float]
+    selection: Any
+    reused: int = 0
+
+
+def moved(before: Mapping[str, float], after: Mapping[str, float], keys: tuple[str, ...]) -> float:
+    """The largest relative change of the statistics ``keys`` between two frames."""
+    return max((abs(after[k] - before[k]) / max(abs(after[k]), abs(before[k]), EPSILON) for k in keys), default=0.0)
+
+
+def reusable(terms: ReuseTerms, last: Decided | None, key: tuple[Any, ...], stats: Mapping[str, float] | None,
+             keys: tuple[str, ...]) -> bool:
+    """Whether ``last`` answers a frame decided under ``key`` with ``stats`` (module docstring)."""
+    return (last is not None and stats is not None and last.reused < terms.frames and last.key == key
+            and moved(last.stats, stats, keys) <= terms.change)
