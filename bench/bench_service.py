@@ -1,7 +1,7 @@
 """The HTTP service on loopback: /v1/select (context alone; with a KITTI and a EuRoC frame as PNG), frame
 streams through sessions at 30 Hz, and SPARQL SELECT against the same query on a side-by-side `oxigraph serve`.
 
-    python bench/bench_service.py [--n 2000] [--frames 200] [--concurrency 4] [--streams 1,2,4,8,16] [--seconds 5]
+    python bench/bench_service.py [--n 2000] [--frames 200] [--concurrency 4] [--streams 1,2,4,8,16] [--seconds 5] [--reuse 0]
 
 Frame requests are timed against one default ORB extraction of the same full frame, timed in this process
 alternately with the requests (so machine load falls on both alike): the ratio is the frame path's cost in
@@ -208,11 +208,16 @@ def main() -> None:
     ap.add_argument("--concurrency", type=int, default=4)
     ap.add_argument("--streams", default="1,2,4,8,16", help="numbers of 30 Hz sessions to run side by side")
     ap.add_argument("--seconds", type=float, default=5.0, help="how long each set of sessions runs")
+    ap.add_argument("--reuse", type=int, default=0, help="nfex:decisionReuseFrames for the run (shipped: 0, every frame scored)")
     args = ap.parse_args()
 
     work = Path(tempfile.mkdtemp(prefix="nfex-bench-service-"))
     store = work / "store"
     kg = open_graph(str(store))
+    if args.reuse:  # nfex:decisionReuseFrames (advisor/reuse.py), as an operator would set it
+        kg.update(f"""PREFIX nfex: <https://w3id.org/nfex#>
+            DELETE {{ nfex:decisionReuseFrames nfex:value ?f }} INSERT {{ nfex:decisionReuseFrames nfex:value {args.reuse} }}
+            WHERE {{ nfex:decisionReuseFrames nfex:value ?f }}""", author="bench")
     kg.backend.flush()  # type: ignore[attr-defined]
     advisor = Advisor(kg)
     advisor.select(CONTEXT)
@@ -264,7 +269,8 @@ def main() -> None:
                 print(f"  one ORB extraction p50 {statistics.median(orb):.2f} ms: the request is {ratio:.1f}x ({'within' if ratio <= 5 else 'above'} 5x)")
 
         kitti = [bytes(cv2.imencode(".png", im)[1]) for im in frames["KITTI 1241x376"]]
-        print(f"sessions of consecutive KITTI frames at 30 Hz, {args.seconds:g} s each, context {STREAM_CONTEXT}:")
+        print(f"sessions of consecutive KITTI frames at 30 Hz, {args.seconds:g} s each, context {STREAM_CONTEXT}, "
+              f"a decision reused for at most {args.reuse} frames:")
         served = 0
         for n in [int(x) for x in args.streams.split(",")]:
             lat, fps = streams(base, kitti, n, args.seconds, STREAM_CONTEXT)

@@ -4,7 +4,7 @@ In a session (or any stream that passes the previous FrameState), frame t+1 is a
 and candidates — without extraction or scoring — when
 
     E(t+1) = E(t)  (every dimension, given or estimated),  the same graph version, budget and model,
-    max_k |s_k(t+1) − s_k(t)| / max(|s_k(t+1)|, |s_k(t)|, ε) ≤ nfex:decisionReuseChange   over FRAME_KEYS,
+    max_k |s_k(t+1) − s_k(t)| / max(|s_k(t+1)|, |s_k(t)|, 1) ≤ nfex:decisionReuseChange   over FRAME_KEYS,
     and the decision has been reused fewer than nfex:decisionReuseFrames times since it was scored.
 
 Both numbers are data (rules/pruning/thresholds.ttl). The shipped nfex:decisionReuseFrames is 0: reuse is
@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
 
-EPSILON = 1e-6
+FLOOR = 1.0  # a statistic below 1 in size (the fractions, sharpness, anisotropy) changes absolutely, not relatively
 
 
 @dataclass(frozen=True)
@@ -55,8 +55,9 @@ class Decided:
 
 
 def moved(before: Mapping[str, float], after: Mapping[str, float], keys: tuple[str, ...]) -> float:
-    """The largest relative change of the statistics ``keys`` between two frames."""
-    return max((abs(after[k] - before[k]) / max(abs(after[k]), abs(before[k]), EPSILON) for k in keys), default=0.0)
+    """The largest change of the statistics ``keys`` between two frames: relative for those larger than 1 (grey
+    levels, gradient energy), absolute for the fractions and ratios below 1, whose relative change near 0 is noise."""
+    return max((abs(after[k] - before[k]) / max(abs(after[k]), abs(before[k]), FLOOR) for k in keys), default=0.0)
 
 
 def reusable(terms: ReuseTerms, last: Decided | None, key: tuple[Any, ...], stats: Mapping[str, float] | None,

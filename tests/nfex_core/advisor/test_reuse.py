@@ -65,5 +65,6 @@ def test_a_frame_that_moved_or_a_new_context_is_scored(kg: KnowledgeGraph, data_
 def test_moved_is_the_largest_relative_change() -> None:
     before, after = {"a": 1.0, "b": 10.0, "c": 0.0}, {"a": 1.1, "b": 10.0, "c": 0.0}
     assert moved(before, after, ("a", "b", "c")) == pytest.approx(0.1 / 1.1)
+    assert moved({"f": 0.001}, {"f": 0.002}, ("f",)) == pytest.approx(0.001)  # a fraction near 0: absolute
     assert moved(before, before, ("a", "b", "c")) == 0.0
     assert moved(before, after, ()) == 0.0
