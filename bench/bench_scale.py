@@ -1,0 +1,257 @@
+"""How nFEX scales with the size of its graph (issue 17): one table over graph sizes, embedded and remote store.
+
+    python bench/bench_scale.py [--sizes 30000,300000,3000000] [--modes embedded,remote] [--plot scale.png]
+
+For each size N: the shipped seed (ontology/ with its measurements, rules/; ~34k statements) plus synthetic
+Measurements drawn like the shipped sweeps (bench/_synthetic.py) up to N statements, written into an empty
+store as one version with ``KnowledgeGraph.load_validated`` — an embedded store, and a fresh `oxigraph serve`
+over HTTP (its staged writes). Then, per store, `nfex serve` (one uvicorn worker, symbolic advisor, reporter
+tokens) is started and measured:
+
+- seed: the load_validated write of the N statements;
+- cold start: from starting the process to ``/readyz`` 200 (import, open, first compile);
+- full compile: ``/readyz`` ``rule_table.compile_ms`` of the first snapshot;
+- compile per report: the same after one more report (there is no incremental compile: every commit
+  recompiles the whole table; a report's version is answered by a full compile);
+- select p50/p99 idle, and during a stream of --reports feedback reports from --threads reporters
+  (bench_fleet.measure), with the reports/s of that stream;
+- a SPARQL aggregate (windows and mean ATE per extractor) through nFEX's ``/sparql``, p50, against the same
+  query sent straight to `oxigraph serve` holding the same data (the baseline of both rows).
+
+The plot (--plot) draws the time columns over N, log-log, one line per store.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import httpx
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _synthetic import synthetic  # noqa: E402
+from bench_fleet import measure, pct  # noqa: E402
+from bench_service import free_port  # noqa: E402
+
+from nfex_core.config import Settings  # noqa: E402
+from nfex_core.kg import KnowledgeGraph  # noqa: E402
+from nfex_core.kg.backends import RemoteBackend  # noqa: E402
+from nfex_core.kg.history import ChangeText  # noqa: E402
+from nfex_core.knowledge import seed_graph  # noqa: E402
+from nfex_core.seed_content import seed_content  # noqa: E402
+
+AGGREGATE = """PREFIX nfex: <https://w3id.org/nfex#>
+PREFIX sosa: <http://www.w3.org/ns/sosa/>
+SELECT ?x (COUNT(?m) AS ?windows) (AVG(?ate) AS ?mean_ate) WHERE {
+  ?m a nfex:Measurement ; sosa:usedProcedure ?c ; nfex:ateRmse ?ate . ?c nfex:ofExtractor ?x } GROUP BY ?x"""
+COLUMNS = [  # (key, header, unit)
+    ("seed_s", "seed", "s"), ("cold_s", "cold start to ready", "s"), ("compile_s", "full compile", "s"),
+    ("report_compile_s", "full compile per report", "s"), ("idle_p50", "select p50 idle", "ms"),
+    ("idle_p99", "select p99 idle", "ms"), ("stream_p50", "select p50 in stream", "ms"),
+    ("stream_p99", "select p99 in stream", "ms"), ("reports_s", "reports/s", ""), ("sparql_p50", "SPARQL agg. p50", "ms"),
+    ("oxigraph_p50", "same on oxigraph serve", "ms"),
+]
+
+
+@dataclass
+class Row:
+    size: int
+    mode: str
+    triples: int = 0
+    values: dict[str, float] = field(default_factory=dict)
+    errors: list[str] = field(default_factory=list)
+
+
+def graph_lines(size: int, settings: Settings) -> list[str]:
+    """The shipped seed, then synthetic Measurements until ``size`` statements (the seed alone when larger)."""
+    seed = list(seed_content(settings, seed_graph).text().added)
+    return seed + list(synthetic(seed, size - len(seed))) if size > len(seed) else seed
+
+
+def seed_store(location: str, lines: list[str], settings: Settings) -> float:
+    """Write ``lines`` into the empty store at ``location`` as version 1; seconds taken. A remote store gets a
+    client without the default 30 s limit per request: moving 300k staged statements in is one long update."""
+    t = time.perf_counter()
+    settings = dataclasses.replace(settings, store=location)
+    if location.startswith("http"):
+        kg = KnowledgeGraph(RemoteBackend(location, timeout_s=3600), settings)
+    else:
+        kg = KnowledgeGraph.open(location, settings=settings)
+    kg.load_validated(ChangeText(lines), author="bench_scale", message=f"{len(lines)} statements")
+    flush = getattr(kg.backend, "flush", None)
+    if flush is not None:
+        flush()
+    kg.close()
+    return time.perf_counter() - t
+
+
+def start_oxigraph(folder: Path) -> tuple[subprocess.Popen[bytes], str]:
+    exe = shutil.which("oxigraph") or str(Path(sys.executable).parent / "oxigraph")
+    port = free_port()
+    proc = subprocess.Popen([exe, "serve", "--location", str(folder), "--bind", f"127.0.0.1:{port}"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    url = f"http://127.0.0.1:{port}"
+    wait_ok(url + "/query?query=ASK%7B%7D", proc, 60)
+    return proc, url
+
+
+def wait_ok(url: str, proc: subprocess.Popen[bytes], timeout: float) -> None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if proc.poll() is not None:
+            raise SystemExit(f"the process (pid {proc.pid}) exited with {proc.returncode} before {url} answered")
+        try:
+            if httpx.get(url, timeout=2).status_code == 200:
+                return
+        except httpx.HTTPError:
+            pass
+        time.sleep(0.1)
+    raise SystemExit(f"{url} did not answer 200 within {timeout} s")
+
+
+def p50_ms(n: int, call: Callable[[], httpx.Response]) -> float:
+    out = []
+    for _ in range(n):
+        t = time.perf_counter()
+        r = call()
+        out.append((time.perf_counter() - t) * 1000)
+        r.raise_for_status()
+    return statistics.median(out)
+
+
+def serve_and_measure(store: str, row: Row, args: argparse.Namespace, oxigraph_url: str, log: Path) -> None:
+    tokens = [f"scale-token-{k}" for k in range(args.threads)]
+    port = free_port()
+    env = dict(os.environ, NFEX_STORE=store, NFEX_HOME=str(ROOT), NFEX_NEURAL="symbolic", NFEX_LOG_LEVEL="warning",
+               PYTHONPATH=str(ROOT), NFEX_TOKENS=",".join(f"scale{k}:{tok}:reporter" for k, tok in enumerate(tokens)))
+    t = time.perf_counter()
+    svc = subprocess.Popen([sys.executable, "-m", "nfex_core.cli.main", "serve", "--port", str(port), "--log-level", "warning"],
+                           env=env, stdout=log.open("wb"), stderr=subprocess.STDOUT)
+    base = f"http://127.0.0.1:{port}"
+    try:
+        wait_ok(base + "/readyz", svc, args.ready_timeout)
+        row.values["cold_s"] = time.perf_counter() - t
+        row.values["compile_s"] = httpx.get(base + "/readyz").json()["rule_table"]["compile_ms"] / 1000
+        run = measure(base, argparse.Namespace(reports=args.reports, threads=args.threads, idle=args.idle), tokens)
+        row.errors += run.errors
+        row.values.update(idle_p50=statistics.median(run.idle_ms), idle_p99=pct(run.idle_ms, 0.99),
+                          stream_p50=statistics.median(run.stream_ms), stream_p99=pct(run.stream_ms, 0.99),
+                          reports_s=run.reports_s)
+        with httpx.Client(base_url=base, timeout=600, headers={"Authorization": f"Bearer {tokens[0]}"}) as c:
+            c.post("/v1/select", params={"consistency": "latest"}, json={"context": {"agent": "car"}}).raise_for_status()  # the stream's compiles done
+            r = c.post("/v1/feedback", json={"extractor": "ORB", "context": {"agent": "car"}, "ate_rmse": 0.5,
+                                             "sequence": "bench/scale", "client": "bench_scale"})
+            r.raise_for_status()
+            c.post("/v1/select", params={"consistency": "latest"}, json={"context": {"agent": "car"}}).raise_for_status()
+            row.values["report_compile_s"] = c.get("/readyz").json()["rule_table"]["compile_ms"] / 1000
+            row.values["sparql_p50"] = p50_ms(args.queries, lambda: c.get("/sparql", params={"query": AGGREGATE}))
+        with httpx.Client(timeout=600) as c:
+            row.values["oxigraph_p50"] = p50_ms(args.queries, lambda: c.get(oxigraph_url + "/query", params={"query": AGGREGATE},
+                                                                             headers={"accept": "application/sparql-results+json"}))
+    finally:
+        svc.terminate()
+        try:
+            svc.wait(60)
+        except subprocess.TimeoutExpired:
+            svc.kill()
+
+
+def run_size(size: int, args: argparse.Namespace, settings: Settings, work: Path) -> list[Row]:
+    t = time.perf_counter()
+    lines = graph_lines(size, settings)
+    print(f"\n{size:,}: {len(lines):,} statements made in {time.perf_counter() - t:.1f} s", flush=True)
+    rows = []
+    ox_proc, ox_url = start_oxigraph(work / f"oxigraph-{size}")
+    try:
+        remote_seed = seed_store(ox_url, lines, settings)
+        for mode in args.modes:
+            row = Row(size, mode, len(lines))
+            store = ox_url if mode == "remote" else str(work / f"embedded-{size}")
+            row.values["seed_s"] = remote_seed if mode == "remote" else seed_store(store, lines, settings)
+            print(f"  {mode}: seeded in {row.values['seed_s']:.1f} s", flush=True)
+            serve_and_measure(store, row, args, ox_url, work / f"serve-{mode}-{size}.log")
+            print("  " + ", ".join(f"{k} {v:.3g}" for k, v in row.values.items()), flush=True)
+            rows.append(row)
+    finally:
+        ox_proc.terminate()
+        ox_proc.wait(60)
+    return rows
+
+
+def table(rows: list[Row]) -> str:
+    head = "| statements | store | " + " | ".join(f"{h}{f' ({u})' if u else ''}" for _, h, u in COLUMNS) + " |"
+    out = [head, "|" + "---|" * (len(COLUMNS) + 2)]
+    for r in rows:
+        cells = [f"{r.values[k]:.3g}" if k in r.values else "–" for k, _, _ in COLUMNS]
+        out.append(f"| {r.triples:,} | {r.mode} | " + " | ".join(cells) + " |")
+    return "\n".join(out)
+
+
+def plot(rows: list[Row], path: Path) -> None:
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print("matplotlib is not installed: no plot (pip install matplotlib)")
+        return
+    fig, ax = plt.subplots(figsize=(8, 5))
+    for i, (key, header, unit) in enumerate(c for c in COLUMNS if c[2]):
+        for mode, style in (("embedded", "-"), ("remote", "--")):
+            pts = [(r.triples, r.values[key] * (1000 if unit == "s" else 1)) for r in rows if r.mode == mode and key in r.values]
+            if pts:
+                ax.plot(*zip(*pts, strict=True), style, marker="o", color=f"C{i}", label=f"{header} ({mode})")
+    ax.set(xscale="log", yscale="log", xlabel="statements in the graph", ylabel="ms", title="nFEX at scale (bench/bench_scale.py)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=6, ncol=2)
+    fig.tight_layout()
+    fig.savefig(path, dpi=150)
+    print(f"plot: {path}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--sizes", default="30000,300000", help="graph sizes in statements, comma-separated")
+    ap.add_argument("--modes", default="embedded,remote", help="embedded, remote or both")
+    ap.add_argument("--reports", type=int, default=100)
+    ap.add_argument("--threads", type=int, default=4)
+    ap.add_argument("--idle", type=int, default=200)
+    ap.add_argument("--queries", type=int, default=20)
+    ap.add_argument("--ready-timeout", type=float, default=600, help="seconds a service may take to become ready")
+    ap.add_argument("--plot", type=Path, default=None, help="where to save the plot (PNG)")
+    args = ap.parse_args()
+    args.modes = [m for m in args.modes.split(",") if m]
+    if not set(args.modes) <= {"embedded", "remote"}:
+        ap.error(f"--modes: embedded and/or remote, got {args.modes}")
+    settings = dataclasses.replace(Settings.from_env(), home=ROOT)
+    work = Path(tempfile.mkdtemp(prefix="nfex-bench-scale-"))
+    rows: list[Row] = []
+    try:
+        for size in (int(s) for s in args.sizes.split(",") if s):
+            rows += run_size(size, args, settings, work)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    print(f"\n{args.reports} reports from {args.threads} threads; {args.idle} idle selects; {args.queries} SPARQL queries\n")
+    print(table(rows))
+    for r in rows:
+        for e in r.errors[:3]:
+            print(f"  {r.triples:,} {r.mode}: a report failed: {e}")
+    if args.plot is not None:
+        plot(rows, args.plot)
+
+
+if __name__ == "__main__":
+    main()
