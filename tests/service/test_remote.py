@@ -59,7 +59,7 @@ def test_replicas_share_the_graph_and_never_lose_a_write(remote_service: Service
     rows = httpx.get(remote_replica.url + "/sparql", params={
         "query": "SELECT ?x WHERE { nfex:ORB rdfs:seeAlso ?x FILTER STRSTARTS(STR(?x), 'https://example.org/replica/') }"}).json()
     assert len(rows["results"]["bindings"]) == 8
-    # a rule written through one replica prunes in the other's next selection (it polls the head, 1 s)
+    # a rule written through one replica prunes in the other's next selection (it polls the head every NFEX_POLL_INTERVAL_S, 0.25 s by default)
     query = ('SELECT ?extractor ?reason WHERE { FILTER (?agent = nfex:agent_drone && ?texture = nfex:texture_low) '
              'BIND (nfex:ORB AS ?extractor) BIND ("pytest replica rule" AS ?reason) }')
     r = httpx.put(remote_service.url + "/v1/rules/pytest-replica", json={"label": "replica", "query": query}, headers=auth())
