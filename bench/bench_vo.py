@@ -2,7 +2,7 @@
 
     python bench/bench_vo.py [--sequence 00] [--frames 30] [--repeat 2] [--extractors ORB,SIFT,AKAZE,BRISK,XFEAT]
 
-Runs ``nfex_core.vo.run_vo`` with each extractor's default parameters over the first N frames (images
+Runs ``nfex_slam.vo.run_vo`` with each extractor's default parameters over the first N frames (images
 decoded once, before timing) and prints, per extractor, frames per second of the whole VO step,
 extraction and matching ms per frame, and the ratio of its FPS to ORB's measured in the same run.
 An extractor whose backend cannot run here (XFeat without the `learned` extra) is listed with why.
@@ -14,12 +14,13 @@ import os
 import tempfile
 import time
 
+from nfex_slam.datasets import ArraySequence, open_sequence
+from nfex_slam.vo import fixed, run_vo
+
 from nfex_core.config import Settings
-from nfex_core.datasets import ArraySequence, open_sequence
 from nfex_core.knowledge import open_graph
 from nfex_core.vision.backends import unavailable
 from nfex_core.vision.registry import ExtractorRegistry
-from nfex_core.vo import fixed, run_vo
 
 
 def main() -> None:

@@ -7,9 +7,10 @@ from __future__ import annotations
 import argparse
 import time
 
+from nfex_slam.datasets import corrupt, open_sequence
+from nfex_slam.datasets.corruptions import NAMES
+
 from nfex_core.config import Settings
-from nfex_core.datasets import corrupt, open_sequence
-from nfex_core.datasets.corruptions import NAMES
 
 
 def per_frame_ms(seq, n: int) -> float:  # type: ignore[no-untyped-def]

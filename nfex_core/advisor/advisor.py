@@ -288,6 +288,7 @@ class Advisor:
             versions={"graph": snap.version, "graph_head": head, "stale_ms": stale_ms, "programs": snap.programs, "rules": len(snap.table.rules), "model": nn.info},
             timings_ms=timings,
             opencv=spec.opencv(best.params),
+            recipe=lambda x, p: snap.vocab.extractor(x).opencv(p),
             state=scored.state,
             budget=budget.as_dict() if budget is not None else None,
             warnings=tuple(outcome.warnings) if outcome is not None else (),

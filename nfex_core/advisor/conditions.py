@@ -40,8 +40,9 @@ def read_conditions(
         entries = tuple(ContextEntry(d, given[d], "given", 1.0) if d in given else ContextEntry(d, None, "unknown")
                         for d in vocab.dimensions)
         return Conditions(entries, {e.dimension: e.value for e in entries}, None, None)
+    from nfex_slam.features import as_grey_u8
+
     from ..vision.context import estimate_context  # imports cv2: only when a frame comes
-    from ..vision.registry import as_grey_u8
     from ..vision.statistics import frame_statistics
 
     image = as_grey_u8(frame)

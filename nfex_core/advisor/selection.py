@@ -5,6 +5,7 @@ Typed dataclasses; the JSON the CLI prints and the service returns is rendered h
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -123,6 +124,8 @@ class Selection:
     verification: Policy = NO_POLICY  # how the client (or the VO) judges each proposal's pair estimate
     escalations: tuple[CandidateScore, ...] = ()  # under a budget: candidates within the per-frame cap, best first
     reused: int = 0  # in a stream: frames this answer has been reused without scoring (advisor/reuse.py); 0: scored here
+    recipe: Callable[[str, Mapping[str, Value]], dict[str, Any]] | None = field(default=None, compare=False, repr=False)
+    # (extractor, Θ′) → its ``opencv`` (ExtractorSpec.opencv): each proposal carries one, so a client runs it as the server would
 
     @property
     def proposals(self) -> tuple[CandidateScore, ...]:
@@ -159,7 +162,8 @@ class Selection:
                 "max_tries": self.verification.max_tries,
                 "accept": [{"tests": [t.text() for t in r.tests], "because": r.citation.as_dict()} for r in self.verification.accept],
                 "escalation": self.verification.escalation_citation.as_dict() if self.verification.escalation_citation else None,
-                "proposals": [{"extractor": c.extractor, "params": c.params, "expected_ms": c.evidence.expected_ms}
+                "proposals": [{"extractor": c.extractor, "params": c.params, "expected_ms": c.evidence.expected_ms,
+                               **({"opencv": self.recipe(c.extractor, c.params)} if self.recipe is not None else {})}
                               for c in self.proposals],
             },
             "warnings": list(self.warnings),

@@ -44,8 +44,8 @@ def ate(
     json: Annotated[bool, typer.Option("--json", help="Print a JSON object instead of a table.")] = False,
 ) -> None:
     """Absolute trajectory error (APE, translation part, metres) of EST against REF, computed as evo_ape."""
-    from ..trajectory import ate as ate_stats
-    from ..trajectory import read_trajectory, rpe
+    from nfex_slam.trajectory import ate as ate_stats
+    from nfex_slam.trajectory import read_trajectory, rpe
 
     fmt = _choice("trajectory format", format, FORMATS)
     align = _choice("alignment", align, ALIGNS)

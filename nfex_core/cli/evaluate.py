@@ -43,7 +43,8 @@ def evaluate(
     per-segment and transition rows under a schedule, ms/frame — the evaluated sequence held out of the graph."""
     import json
 
-    from ..datasets import open_sequence
+    from nfex_slam.datasets import open_sequence
+
     from ..evaluation import as_json, csv_text, frames_csv, known_methods, markdown, selections_csv
     from ..evaluation import evaluate as run_evaluation
 

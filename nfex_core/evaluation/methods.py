@@ -22,13 +22,15 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from ..datasets.base import Frame
+from nfex_slam.datasets.base import Frame
+from nfex_slam.pairs import NEXT, PairEvidence, Prior, Verdict
+from nfex_slam.vo import Choice, Chooser, FrameRecord, Proposals, fixed
+
 from ..errors import BadInput
 from ..evidence import robust
 from ..kg.vocab import Value, Vocabulary
 from ..rules.engine import RuleTable
-from ..verification import NEXT, BudgetWindow, PairEvidence, Prior, Verdict, judge
-from ..vo import Choice, Chooser, FrameRecord, Proposals, fixed
+from ..verification import BudgetWindow, judge
 
 if TYPE_CHECKING:
     from ..advisor import Advisor

@@ -21,9 +21,9 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 
-from ..datasets.base import Frame
-from ..datasets.schedule import Schedule
-from ..vo import Choice, Chooser, FrameRecord, VOResult
+from nfex_slam.datasets.base import Frame
+from nfex_slam.datasets.schedule import Schedule
+from nfex_slam.vo import Choice, Chooser, FrameRecord, VOResult
 
 LOST_PAIR_DEG = 360.0
 

@@ -14,7 +14,7 @@ from .stats import summary
 
 
 def _aligned(ev: Evaluation, poses: np.ndarray) -> np.ndarray:
-    from ..trajectory import umeyama
+    from nfex_slam.trajectory import umeyama
 
     gt = ev.ground_truth
     if gt is None or len(gt) != len(poses):

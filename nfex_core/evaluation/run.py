@@ -24,13 +24,13 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from nfex_slam.datasets.base import Sequence
+from nfex_slam.datasets.schedule import Schedule, apply_schedule
+from nfex_slam.motion import NO_CHECKS, StepChecks
+from nfex_slam.vo import VOParams, VOResult, run_vo
 
-from ..datasets.base import Sequence
-from ..datasets.schedule import Schedule, apply_schedule
 from ..identity import sequence_iri
 from ..kg.scope import EvidenceScope, scoped_graph
-from ..motion import NO_CHECKS, StepChecks
-from ..vo import VOParams, VOResult, run_vo
 from .methods import NFEX, ORACLES, TUNED, AdvisorChooser, DynChooser, chooser_for, static_methods
 from .oracle import per_pair, per_segment, replay
 from .segments import by_segment, run_errors, transitions
@@ -141,7 +141,7 @@ def _variant(seq: Sequence, condition: str, severity: float, run: int, schedule:
         return apply_schedule(seq, schedule, severity, seed=run)
     if condition == "none":
         return seq
-    from ..datasets.corruptions import corrupt
+    from nfex_slam.datasets.corruptions import corrupt
 
     return corrupt(seq, condition, severity, seed=run)
 

@@ -21,9 +21,8 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-
-from ..datasets.schedule import Schedule
-from ..vo import VOResult
+from nfex_slam.datasets.schedule import Schedule
+from nfex_slam.vo import VOResult
 
 
 @dataclass(frozen=True)
@@ -36,8 +35,9 @@ class RunErrors:
 
 def run_errors(ground_truth: np.ndarray | None, res: VOResult) -> RunErrors:
     """ATE and RPE of ``res`` against ``ground_truth`` (N×4×4 poses of the same frames)."""
+    from nfex_slam.trajectory import Trajectory, ate, rpe
+
     from ..errors import NfexError
-    from ..trajectory import Trajectory, ate, rpe
 
     if ground_truth is None or res.failed or len(res.frames) < 3:
         return RunErrors(None, None, None, None)

@@ -10,6 +10,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from nfex_slam.features import Recipe
 from rdflib.namespace import XSD
 from rdflib.term import Literal, URIRef
 
@@ -171,8 +172,12 @@ class ExtractorSpec:
         """How a client builds this extractor with ``params`` (a Selection's ``opencv``): the constructor
         (a path under cv2), the matching norm, the constructor's ``args``, and ``grid`` — None, or the cell
         size and how many keypoints to keep (0: all) when the detected keypoints are to be spread over a
-        grid before descriptors are computed (the registry's ``spread_over_grid``)."""
-        full = self.resolve(params)
+        grid before descriptors are computed (``nfex_slam.features.spread_over_grid``), the matcher and the
+        descriptor kind: all a client needs to run the configuration exactly as the server does."""
+        return self.opencv_of(self.resolve(params))
+
+    def opencv_of(self, full: Mapping[str, Value]) -> dict[str, Any]:
+        """``opencv`` for an already resolved (full, validated) parameter set."""
         grid = self.grid(full)
         nf = self.nf_parameter()
         return {
@@ -180,7 +185,13 @@ class ExtractorSpec:
             "norm": self.norm_for(full),
             "args": self.constructor_args(full),
             "grid": None if grid is None else {"cell_size": grid[0], "keep": int(full[nf]) if nf is not None else 0},
+            "matcher": self.matcher,
+            "descriptor_kind": self.descriptor_kind,
         }
+
+    def recipe(self, full: Mapping[str, Value]) -> Recipe:
+        """``opencv_of(full)`` as the SLAM front end runs it (nfex_slam.features.Recipe)."""
+        return Recipe.from_selection(self.opencv_of(full))
 
 
 @dataclass(frozen=True)

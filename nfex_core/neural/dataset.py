@@ -122,8 +122,8 @@ def default_image_source(data_dir: Path) -> ImageSource:
 
     def loaders() -> tuple[Any, Any] | None:
         try:
-            from ..datasets import open_sequence
-            from ..datasets.corruptions import corrupt
+            from nfex_slam.datasets import open_sequence
+            from nfex_slam.datasets.corruptions import corrupt
         except ImportError:
             return None
         return open_sequence, corrupt

@@ -27,6 +27,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
+from nfex_slam.motion import StepChecks
 from rdflib.term import URIRef
 
 from ..cost import BudgetTerms, CostModel, fit_cost_model, measured_settings
@@ -35,7 +36,7 @@ from ..evidence import Admission, Observation, TrustPolicy, admit, read_observat
 from ..evidence.view import evidence_view
 from ..kg.terms import py
 from ..kg.vocab import ExtractorSpec, Value
-from ..motion import StepChecks, load_step_checks
+from ..motion import load_step_checks
 from . import pruning
 from .shapes import load_context_shapes
 from .statements import CompiledStatement, load_statements

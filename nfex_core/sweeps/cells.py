@@ -17,10 +17,10 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
+from nfex_slam.datasets.base import Frame, Sequence
+from nfex_slam.motion import NO_CHECKS, StepChecks, motion_direction, relative_truth, rotation_deg
 
-from ..datasets.base import Frame, Sequence
 from ..kg.vocab import ExtractorSpec
-from ..motion import NO_CHECKS, StepChecks, motion_direction, relative_truth, rotation_deg
 
 METRIC_EVERY = 3  # window means of m1–m7 from frames 0, 3, 6, … of the window
 DIMENSIONS = ("agent", "motion", "scene", "light", "reflectance", "texture")
@@ -102,18 +102,18 @@ def init_worker(specs: Mapping[str, ExtractorSpec]) -> None:
 
 
 def load_sequence(cell: Cell) -> Sequence:
-    from ..datasets import open_sequence
+    from nfex_slam.datasets import open_sequence
 
     key = (cell.path, cell.format, cell.sequence, cell.corruption, cell.severity, cell.seed, cell.schedule)
     seq = _SEQUENCES.get(key)
     if seq is None:
         seq = open_sequence(cell.path, cell.format, cell.sequence or None)
         if cell.corruption == "schedule":
-            from ..datasets.schedule import Schedule, apply_schedule
+            from nfex_slam.datasets.schedule import Schedule, apply_schedule
 
             seq = apply_schedule(seq, Schedule.parse(cell.schedule, len(seq)), cell.severity, seed=cell.seed)
         elif cell.corruption != "none":
-            from ..datasets.corruptions import corrupt
+            from nfex_slam.datasets.corruptions import corrupt
 
             seq = corrupt(seq, cell.corruption, cell.severity, seed=cell.seed)
         seq = _SEQUENCES[key] = _CachedSequence(seq)
@@ -126,9 +126,10 @@ def load_sequence(cell: Cell) -> Sequence:
 
 def run_cell(cell: Cell, specs: Mapping[str, ExtractorSpec] | None = None) -> dict[str, Any]:
     """Measure one cell; returns its training-table row (never raises for tracking failure)."""
+    from nfex_slam.vo import fixed, run_vo, window_errors
+
     from ..vision.context import frame_statistics
     from ..vision.metrics import compute_metrics
-    from ..vo import fixed, run_vo
 
     if _REGISTRY is None or specs is not None:
         init_worker(specs or {})
@@ -238,25 +239,3 @@ def _rotvec(R: np.ndarray) -> tuple[float, float, float]:
 
     v, _ = cv2.Rodrigues(np.asarray(R, dtype=float))
     return float(v[0, 0]), float(v[1, 0]), float(v[2, 0])
-
-
-def window_errors(seq: Sequence, res: Any) -> tuple[float | None, float | None]:
-    """ATE RMSE (Sim(3), as evo ``-as``) and RPE RMSE (consecutive frames, after the same Sim(3)
-    scale) of a VO result against the ground truth; (None, None) without ground truth or when the
-    alignment is degenerate (e.g. the estimate does not move)."""
-    from ..errors import NfexError
-    from ..trajectory import Trajectory, ate, rpe
-
-    gt = np.array([seq[f.index].pose for f in res.frames], dtype=object)
-    if any(p is None for p in gt):
-        return None, None
-    ref = Trajectory(res.timestamps.copy(), np.stack(list(gt)).astype(float))
-    est = Trajectory(res.timestamps.copy(), res.poses.copy())
-    try:
-        a = ate(ref, est, align="sim3")
-        r = rpe(ref, est, align="sim3")
-    except (NfexError, np.linalg.LinAlgError):
-        return None, None
-    if not np.isfinite(a.rmse):
-        return None, None
-    return float(a.rmse), float(r.rmse)

@@ -12,7 +12,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ..datasets.schedule import Schedule
+from nfex_slam.datasets.schedule import Schedule
+
 from ..errors import BadInput
 from ..identity import canonical, measurement_iri
 from ..motion import load_step_checks
@@ -126,7 +127,7 @@ def sweep(
     on_batch: Callable[[int], None] | None = None,
 ) -> dict[str, int]:
     """Run the sweep; returns counts (cells planned, skipped as done, run, rows committed to the graph)."""
-    from ..datasets import open_sequence
+    from nfex_slam.datasets import open_sequence
 
     vocab = kg.vocabulary()
     for x in spec.extractors:

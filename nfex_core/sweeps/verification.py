@@ -46,10 +46,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from nfex_slam.motion import angle_between, rotation_deg
+from nfex_slam.pairs import STILL_PX
 
 from ..evaluation.oracle import LOST_PAIR_DEG
-from ..motion import angle_between, rotation_deg
-from ..verification import STILL_PX
 from .cells import BAD_PAIR_DEG
 from .table import read_pairs
 

@@ -18,9 +18,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-
-from .features import Features
-from .registry import as_grey_u8
+from nfex_slam.features import Features, as_grey_u8
 
 PATCH = 7  # side of the intensity patch around a feature (px)
 SHIFT = 2  # Moravec shift (px)

@@ -13,7 +13,7 @@ extractor is a Turtle file, not code.
 
 A parameter with an ``nfex:gridRole`` (ontology/grid.ttl) is not a constructor argument: when an
 extractor declares a grid cell size, the registry detects ``oversample`` × NF keypoints and keeps NF
-of them spread over square cells (``spread_over_grid``), then computes descriptors for those only —
+of them spread over square cells (``nfex_slam.features.spread_over_grid``), then computes descriptors for those only —
 ORB-SLAM's idea, available to any extractor as data (ORB_GRID).
 
 Parameter sets are validated against the graph (an out-of-range or unknown parameter raises
@@ -23,49 +23,17 @@ backend loads its model once per process, on its first extraction.
 """
 from __future__ import annotations
 
-import threading
-import time
-from collections import OrderedDict
 from collections.abc import Callable, Mapping
 from typing import Any
 
 import cv2
 import numpy as np
+from nfex_slam.features import Features, as_grey_u8, detector, extract
 
 from ..config import Settings
 from ..errors import BadInput, UnknownName
 from ..kg.vocab import ExtractorSpec, Value, Vocabulary
 from .backends import backend
-from .features import Features
-
-CACHE_SIZE = 64
-
-
-def resolve_constructor(path: str) -> Callable[..., Any]:
-    """``cv2.<path>`` for a dotted path; a clear error when this OpenCV build lacks it."""
-    obj: Any = cv2
-    for part in path.split("."):
-        if not hasattr(obj, part):
-            raise BadInput(
-                f"OpenCV {cv2.__version__} has no constructor cv2.{path} "
-                "(AKAZE and BRISK need the contrib build: opencv-contrib-python-headless)"
-            )
-        obj = getattr(obj, part)
-    if not callable(obj):
-        raise BadInput(f"cv2.{path} is not callable")
-    return obj
-
-
-def as_grey_u8(image: np.ndarray) -> np.ndarray:
-    """A uint8 single-channel view of ``image`` (BGR/BGRA converted, other dtypes clipped)."""
-    if image.ndim == 3:
-        code = cv2.COLOR_BGRA2GRAY if image.shape[2] == 4 else cv2.COLOR_BGR2GRAY
-        image = cv2.cvtColor(image, code)
-    elif image.ndim != 2:
-        raise BadInput(f"an image must be H×W or H×W×C, got shape {image.shape}")
-    if image.dtype != np.uint8:
-        image = np.clip(image, 0, 255).astype(np.uint8)
-    return image
 
 
 class ExtractorRegistry:
@@ -102,7 +70,7 @@ class ExtractorRegistry:
     def create(self, name: str, params: Mapping[str, Any] | None = None) -> Any:
         """A (thread-local, cached) OpenCV detector for ``name`` with ``params`` (OpenCV backends only)."""
         spec = _opencv_spec(self.spec(name))
-        return _detector(spec, spec.constructor_args(spec.resolve(params)))
+        return detector(spec.recipe(spec.resolve(params)))
 
     def descriptor_size(self, name: str, params: Mapping[str, Any] | None = None) -> int:
         """Descriptor length: the graph's ``nfex:descriptorSize``, else what the OpenCV detector reports."""
@@ -137,81 +105,8 @@ def _opencv_spec(spec: ExtractorSpec) -> ExtractorSpec:
     return spec
 
 
-_LOCAL = threading.local()
-
-
-def _detector(spec: ExtractorSpec, args: dict[str, Value]) -> Any:
-    """OpenCV detectors are cheap to build but not safe to share between threads: cached per thread."""
-    key = (spec.name, spec.constructor, tuple(sorted(args.items())))
-    cache: OrderedDict[tuple[Any, ...], Any] | None = getattr(_LOCAL, "cache", None)
-    if cache is None:
-        cache = _LOCAL.cache = OrderedDict()
-    detector = cache.get(key)
-    if detector is None:
-        detector = resolve_constructor(spec.constructor)(**args)
-        cache[key] = detector
-        if len(cache) > CACHE_SIZE:
-            cache.popitem(last=False)
-    else:
-        cache.move_to_end(key)
-    return detector
-
-
 def extract_opencv(spec: ExtractorSpec, grey: np.ndarray, full: Mapping[str, Value], mask: np.ndarray | None,
                    settings: Settings | None = None) -> Features:
-    """The ``opencv`` backend: ``detectAndCompute`` (or detect, spread over the grid, compute)."""
-    detector = _detector(spec, spec.constructor_args(full))
-    norm_name = spec.norm_for(full)
-    norm = int(getattr(cv2, norm_name))
-    grid = spec.grid(full)
-    t0 = time.perf_counter()
-    if grid is None:
-        keypoints, descriptors = detector.detectAndCompute(grey, mask)
-    else:
-        nf = spec.nf_parameter()
-        keep = int(full[nf]) if nf is not None else 0
-        keypoints = spread_over_grid(detector.detect(grey, mask), grid[0], keep)
-        keypoints, descriptors = detector.compute(grey, keypoints)
-    elapsed = (time.perf_counter() - t0) * 1000
-    try:
-        width = int(detector.descriptorSize())
-    except cv2.error:
-        width = 0
-    return Features.from_opencv(
-        spec.name,
-        keypoints,
-        descriptors,
-        width=width,
-        norm=norm,
-        norm_name=norm_name,
-        descriptor_kind=spec.descriptor_kind,
-        image_shape=(int(grey.shape[0]), int(grey.shape[1])),
-        elapsed_ms=elapsed,
-        matcher=spec.matcher,
-    )
-
-
-def spread_over_grid(keypoints: Any, cell: int, keep: int) -> list[Any]:
-    """Keep ``keep`` keypoints (all when 0) spread over square cells of ``cell`` px.
-
-    Round-robin by rank: every cell's strongest keypoint (by response) comes before any cell's second,
-    and within one rank the stronger first — so each textured cell gets its share (ORB-SLAM's grid
-    quota) and the strongest cells fill the remainder. Deterministic (stable sorts).
-    """
-    kps = list(keypoints)
-    if not kps:
-        return kps
-    xy = np.array([k.pt for k in kps], dtype=np.float64)
-    response = np.array([k.response for k in kps], dtype=np.float64)
-    cx = np.floor(xy[:, 0] / cell).astype(np.int64)
-    cy = np.floor(xy[:, 1] / cell).astype(np.int64)
-    cell_id = cy * (int(cx.max()) + 1) + cx
-    order = np.lexsort((-response, cell_id))  # by cell, strongest first within a cell
-    sorted_cells = cell_id[order]
-    starts = np.r_[0, np.flatnonzero(np.diff(sorted_cells)) + 1]
-    rank = np.empty(len(kps), dtype=np.int64)
-    rank[order] = np.arange(len(kps)) - np.repeat(starts, np.diff(np.r_[starts, len(kps)]))
-    chosen = np.lexsort((-response, rank))
-    if keep > 0:
-        chosen = chosen[:keep]
-    return [kps[i] for i in chosen]
+    """The ``opencv`` backend: the configuration's recipe run by the SLAM front end (nfex_slam.features.extract),
+    so a client that runs a Selection's ``opencv`` finds exactly these features."""
+    return extract(spec.name, _opencv_spec(spec).recipe(full), grey, mask)

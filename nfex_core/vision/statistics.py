@@ -24,8 +24,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-
-from .registry import as_grey_u8
+from nfex_slam.features import as_grey_u8
 
 ANALYSIS_SIDE = 320
 PERCENTILES = (1, 5, 25, 50, 75, 95, 99)

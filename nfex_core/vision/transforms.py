@@ -6,7 +6,7 @@ estimators in ``context.py`` can be scored against it: ``dark`` (gamma + gain + 
 linear blur kernel, optionally with the frame displaced from its predecessor) and ``glare``
 (small saturated specular highlights). All are deterministic for a given ``seed``.
 
-These are measurement tools, not the corruption suite of the sweeps (``nfex_core.datasets.corruptions``).
+These are measurement tools, not the corruption suite of the sweeps (``nfex_slam.datasets.corruptions``).
 """
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Frames of the data folder's sequences (``NFEX_DATA``) to try a selection on, by id (the workbench's
-"pick a dataset frame"). Only frames ``nfex_core.datasets.samples`` found can be read."""
+"pick a dataset frame"). Only frames ``nfex_slam.datasets.samples`` found can be read."""
 from __future__ import annotations
 
 from functools import lru_cache
@@ -8,8 +8,8 @@ from typing import Any
 
 from fastapi import APIRouter
 from fastapi.responses import FileResponse
+from nfex_slam.datasets.samples import Sample, samples
 
-from nfex_core.datasets.samples import Sample, samples
 from nfex_core.errors import NotFound
 
 from ..deps import SettingsDep

@@ -7,9 +7,10 @@ from typing import Any
 import numpy as np
 from fastapi import APIRouter, Request, Response
 from fastapi.concurrency import run_in_threadpool
+from nfex_slam.pairs import ACCEPT, NEXT, STILL_PX, PairEvidence, Prior
 
 from nfex_core.errors import BadInput, NfexError
-from nfex_core.verification import ACCEPT, NEXT, STILL_PX, PairEvidence, Prior, judge
+from nfex_core.verification import judge
 
 from ..deps import AdvisorDep, SessionsDep, SettingsDep
 from ..frames import read_select

@@ -160,6 +160,9 @@ class OpenCV(Out):
                                    "settings, the feature count oversampled under a grid.")
     grid: Grid | None = Field(None, description="Spread detections over square cells before computing descriptors "
                               "(ORB_GRID), or null.")
+    matcher: str = Field("ratio", description="How descriptors are matched: ratio (Lowe's test) | mutual-ratio (and "
+                         "mutual nearest neighbours).")
+    descriptor_kind: str = Field("", description="binary (Hamming norms) | real (L2).")
 
 
 class Keypoints(Out):
@@ -183,6 +186,7 @@ class Proposal(Out):
     extractor: str
     params: dict[str, Value]
     expected_ms: float | None = Field(None, description="The cost model's expected extraction ms (under a budget).")
+    opencv: OpenCV | None = Field(None, description="How to build this proposal's extractor (as the selection's `opencv`).")
 
 
 class Verification(Out):

@@ -114,8 +114,7 @@ def test_the_client_is_an_installable_package(tmp_path: Path) -> None:
 
 def test_a_grid_selection_builds_a_grid_spread_that_orders_as_the_registry(data_dir: Path) -> None:
     from nfex_client import GridSpread, spread_keypoints
-
-    from nfex_core.vision.registry import spread_over_grid
+    from nfex_slam.features import spread_over_grid
 
     frame = cv2.imread(str(data_dir / "kitti" / "sequences" / "01" / "image_0" / "000000.png"), cv2.IMREAD_GRAYSCALE)
     sel = {"params": {}, "opencv": {"constructor": "ORB_create", "norm": "NORM_HAMMING",

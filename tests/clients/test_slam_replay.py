@@ -15,10 +15,9 @@ sys.path.insert(0, str(ROOT / "clients" / "slam"))
 
 @pytest.mark.slow
 def test_replay_kitti01_through_a_session(service: Service, data_dir: Path, tmp_path: Path) -> None:
-    from nfex_slam import replay
-
-    from nfex_core.datasets import open_sequence
-    from nfex_core.trajectory import read_trajectory
+    from nfex_slam.datasets import open_sequence
+    from nfex_slam.replay import replay
+    from nfex_slam.trajectory import read_trajectory
 
     seq = open_sequence(data_dir / "kitti", "kitti", "01")
     before = service.version()
@@ -35,9 +34,9 @@ def _replay_and_evaluate(template: Path, settings: Any, data_dir: Path, tmp_path
     another (``program`` applied to both first)."""
     import shutil
 
-    from nfex_slam import replay
+    from nfex_slam.datasets import open_sequence
+    from nfex_slam.replay import replay
 
-    from nfex_core.datasets import open_sequence
     from nfex_core.evaluation import evaluate
     from nfex_core.kg import KnowledgeGraph
     from nfex_core.rules.dsl import programs

@@ -6,8 +6,8 @@ from __future__ import annotations
 import rdflib
 from hypothesis import given
 from hypothesis import strategies as st
+from nfex_slam.datasets.synthetic import make_sequence
 
-from nfex_core.datasets.synthetic import make_sequence
 from nfex_core.feedback import Feedback, measurement_graph
 from nfex_core.identity import sequence_iri
 from nfex_core.kg import KnowledgeGraph

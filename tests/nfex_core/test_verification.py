@@ -7,10 +7,11 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from nfex_slam.motion import rotation_deg
+from nfex_slam.pairs import ACCEPT, FALLBACK, NEXT, PairEvidence, Prior
 
-from nfex_core.motion import rotation_deg
 from nfex_core.rules.types import AcceptRule, Citation, PairTest, Policy
-from nfex_core.verification import ACCEPT, FALLBACK, NEXT, PairEvidence, Prior, judge, signals
+from nfex_core.verification import judge, signals
 
 CAR = Citation("urn:accept-car", "accept pair if heading_change <= 4 and rotation_change <= 1.5", "learned", "accept")
 AGREE = Citation("urn:agree", "accept pair if agreement <= 2", "learned", "accept")

@@ -205,6 +205,8 @@ class OpenCV(TypedDict):
     norm: str
     args: NotRequired[dict[str, int | float | bool]]
     grid: NotRequired[Grid | None]
+    matcher: NotRequired[str]
+    descriptor_kind: NotRequired[str]
 
 
 class Parameter(TypedDict):
@@ -259,6 +261,7 @@ class Proposal(TypedDict):
     extractor: str
     params: dict[str, int | float | bool]
     expected_ms: NotRequired[float | None]
+    opencv: NotRequired[OpenCV | None]
 
 
 class Pruned(TypedDict):

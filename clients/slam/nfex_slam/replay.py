@@ -3,7 +3,7 @@
     nfex-slam-replay --service http://127.0.0.1:8000 --format kitti --path ../shared/data/kitti \\
         --sequence 01 --out kitti01.tum [--window 50] [--context agent=car]
 
-Per frame, the VO (``nfex_core.vo.run_vo``) asks the service which extractor and parameters to run,
+Per frame, the VO (``nfex_slam.vo.run_vo``) asks the service which extractor and parameters to run,
 through one session (``POST /v1/sessions/{id}/frames``: the service keeps the previous frame for the
 temporal metrics, as the in-process advisor does in ``nfex evaluate``). Where the graph's verification is in
 force, the VO tries the frame's proposals in order and the service judges each pair
@@ -12,13 +12,15 @@ PNG, so the service scores exactly the pixels the in-process advisor would. Afte
 one feedback per window (ATE over the window, frames with tracking lost, mean inliers/matches/
 keypoints, extraction time, under the configuration used on most of the window's frames), writes the
 estimated trajectory in TUM format and prints the ATE, computed as ``nfex evaluate`` computes it
-(``nfex_core.sweeps.cells.window_errors``; Sim(3)-aligned ATE where that module is absent). The extractor
-registry is built from the service's graph over its SPARQL endpoint, so both sides run the same
-extractors with the same parameter ranges.
+(``nfex_slam.vo.window_errors``). Each extractor runs from the recipe the service sends with the selection
+and with each proposal (``opencv``: constructor, arguments, norm, grid, matcher; ``nfex_slam.features``) —
+the code the server's registry runs too, so both sides find the same features without the client reading
+the graph.
 """
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from collections import Counter
 from collections.abc import Mapping
@@ -29,6 +31,38 @@ from typing import Any
 import numpy as np
 from nfex_client import NfexClient
 
+from .datasets import open_sequence
+from .features import Features, Recipe, extract
+from .pairs import PairEvidence, Verdict
+from .trajectory import Trajectory, ate, write_tum
+from .vo import Choice, Proposals, VOParams, run_vo, window_errors
+
+
+class SelectionExtractors:
+    """The VO's extractors (``nfex_slam.vo.Extractors``) from the service's answers: each (α, Θ′) the service
+    named runs from the recipe it sent with it. Θ′ in a selection is the full parameter set, so ``resolve`` is
+    the identity."""
+
+    def __init__(self) -> None:
+        self.recipes: dict[tuple[str, str], Recipe] = {}
+
+    @staticmethod
+    def _key(name: str, params: Mapping[str, Any] | None) -> tuple[str, str]:
+        return name, json.dumps(dict(params or {}), sort_keys=True, default=str)
+
+    def learn(self, name: str, params: Mapping[str, Any], opencv: Mapping[str, Any] | None) -> None:
+        if opencv:
+            self.recipes[self._key(name, params)] = Recipe.from_selection(opencv)
+
+    def extract(self, name: str, image: np.ndarray, params: Mapping[str, Any] | None = None) -> Features:
+        recipe = self.recipes.get(self._key(name, params))
+        if recipe is None:
+            raise KeyError(f"the service sent no recipe for {name} with {dict(params or {})}")
+        return extract(name, recipe, image)
+
+    def resolve(self, name: str, params: Mapping[str, Any] | None = None) -> dict[str, Any]:
+        return dict(params or {})
+
 
 @dataclass
 class ServiceChooser:
@@ -36,30 +70,30 @@ class ServiceChooser:
 
     client: NfexClient
     session_id: str
+    extractors: SelectionExtractors = field(default_factory=SelectionExtractors)
     selections: list[dict[str, Any]] = field(default_factory=list)
 
-    def __call__(self, frame: Any, history: list[Any]) -> Any:
-        from nfex_core.vo import Choice, Proposals
-
+    def __call__(self, frame: Any, history: list[Any]) -> Choice | Proposals:
         sel = self.client.session_frame(self.session_id, frame.image, context=dict(frame.context) or None)
         self.selections.append({"frame": frame.index, "extractor": sel["extractor"], "params": sel["params"],
                                 "pruned": [p["extractor"] for p in sel["pruned"]]})
+        self.extractors.learn(sel["extractor"], sel["params"], sel.get("opencv"))
         verification = sel["verification"]
         if not verification["accept"]:
-            return sel["extractor"], dict(sel["params"])
+            return Choice(sel["extractor"], dict(sel["params"]))
+        for p in verification["proposals"]:
+            self.extractors.learn(p["extractor"], p["params"], p.get("opencv"))
         proposals = tuple(Choice(p["extractor"], dict(p["params"])) for p in verification["proposals"])
         return Proposals(proposals, self.judge)
 
-    def judge(self, tried: list[Any], prior: Any, remaining: int) -> Any:
+    def judge(self, tried: list[PairEvidence], prior: Any, remaining: int) -> Verdict:
         """The pair's verdict from the service (POST /v1/sessions/{id}/verdict), for the VO."""
-        from nfex_core.verification import Verdict
-
         out = self.client.verdict(self.session_id, [_tried(e) for e in tried])
         return Verdict(out["action"], out.get("accepted"), None, out["reason"])
 
 
-def _tried(e: Any) -> dict[str, Any]:
-    """A VO pair estimate (nfex_core.verification.PairEvidence) as the service reads it: R and t = −R·d."""
+def _tried(e: PairEvidence) -> dict[str, Any]:
+    """A VO pair estimate as the service reads it: R and t = −R·d."""
     out: dict[str, Any] = {"extractor": e.extractor, "params": dict(e.params), "keypoints": e.keypoints, "matches": e.matches,
                            "inliers": e.inliers, "parallax_px": e.parallax_px, "extraction_ms": e.extraction_ms,
                            "rejected": e.rejected, "R": None, "t": None}
@@ -69,38 +103,7 @@ def _tried(e: Any) -> dict[str, Any]:
     return out
 
 
-class _ServiceGraph:
-    """Just enough of a KnowledgeGraph (``select``, ``version``) to load the vocabulary over /sparql."""
-
-    def __init__(self, client: NfexClient, base_url: str) -> None:
-        from nfex_core.kg.backends import RemoteBackend
-        from nfex_core.namespaces import sparql_prefixes
-
-        self._backend = RemoteBackend(base_url.rstrip("/") + "/sparql")
-        self._prefixes = sparql_prefixes()
-        self.version = client.graph_version()
-
-    def select(self, query: str, *, prefixes: bool = True) -> Any:
-        return self._backend.select((self._prefixes if prefixes else "") + query)
-
-
-def service_registry(client: NfexClient, base_url: str) -> Any:
-    from nfex_core.kg.vocab import Vocabulary
-    from nfex_core.vision.registry import ExtractorRegistry
-
-    return ExtractorRegistry.from_vocabulary(Vocabulary.load(_ServiceGraph(client, base_url)))
-
-
 def _ate(sequence: Any, result: Any) -> float | None:
-    try:
-        from nfex_core.sweeps.cells import window_errors
-    except ModuleNotFoundError:
-        from nfex_core.trajectory import Trajectory, ate, from_sequence
-
-        if sequence.poses is None:
-            return None
-        est = Trajectory(result.timestamps, result.poses)
-        return float(ate(from_sequence(sequence), est, align="sim3").rmse)
     value, _ = window_errors(sequence, result)
     return None if value is None else float(value)
 
@@ -130,8 +133,6 @@ def _window_feedback(sequence: Any, result: Any, start: int, stop: int) -> dict[
         fields["mean_matches"] = float(np.mean([r.matches for r in pairs]))
         fields["mean_inliers"] = float(np.mean([r.inliers for r in pairs]))
     if sequence.poses is not None and stop - start >= 3:
-        from nfex_core.trajectory import Trajectory, ate
-
         gt = Trajectory(sequence.timestamps[start:stop], sequence.poses[start:stop])
         est = Trajectory(result.timestamps[start:stop], result.poses[start:stop])
         if not any(r.lost for r in records):
@@ -158,18 +159,14 @@ def replay(
     ``seed`` is the VO's RANSAC draw (``VOParams.seed``): with seed r the run is the one ``nfex evaluate``
     makes as its run r, so both print the same ATE on the same graph. Feedback needs ``token`` with the
     reporter role (or a ``client`` built with one)."""
-    from nfex_core.trajectory import Trajectory, write_tum
-    from nfex_core.vo import VOParams, run_vo
-
     own = client is None
     client = client or NfexClient(base_url, token=token)
     try:
-        registry = service_registry(client, base_url)
         ctx = {**{k: v for k, v in sequence.context.items() if v}, **dict(context or {})}
         session = client.open_session(ctx, client="nfex-slam-replay")
         chooser = ServiceChooser(client, session["id"])
         try:
-            result = run_vo(sequence, chooser, registry=registry, stop=frames, params=VOParams(seed=seed))
+            result = run_vo(sequence, chooser, registry=chooser.extractors, stop=frames, params=VOParams(seed=seed))
             feedback: list[dict[str, Any]] = []
             n = len(result.frames)
             size = window or n
@@ -202,9 +199,6 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--token-file", type=Path, help="a file holding a bearer token with the reporter role (for feedback)")
     ap.add_argument("--seed", type=int, default=0, help="RANSAC draw: `nfex evaluate`'s run number (default 0)")
     args = ap.parse_args(argv)
-
-    from nfex_core.datasets import open_sequence
-
     context = dict(item.split("=", 1) for item in args.context)
     seq = open_sequence(args.path, args.format, args.sequence)
     res = replay(args.service, seq, args.out, context=context, window=args.window, frames=args.frames,

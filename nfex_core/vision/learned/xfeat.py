@@ -27,11 +27,11 @@ from collections.abc import Mapping
 
 import cv2
 import numpy as np
+from nfex_slam.features import Features
 
 from ...config import Settings
 from ...errors import ParameterError
 from ...kg.vocab import ExtractorSpec, Value
-from ..features import Features
 from .model import DESCRIPTOR_SIZE, STRIDE, XFeatNetwork, network
 from .network import CELL
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import cv2
+from nfex_slam.datasets.synthetic import make_sequence
 
 from nfex_core.advisor.advisor import Advisor
-from nfex_core.datasets.synthetic import make_sequence
 from nfex_core.kg import KnowledgeGraph
 
 KITTI = "kitti/sequences/00/image_0"

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from nfex_slam.trajectory import Trajectory, write_tum
 
-from nfex_core.trajectory import Trajectory, write_tum
 from tests.conftest import run_cli
 
 

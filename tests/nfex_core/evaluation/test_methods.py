@@ -2,8 +2,8 @@
 from __future__ import annotations
 
 import pytest
+from nfex_slam.datasets.base import Frame
 
-from nfex_core.datasets.base import Frame
 from nfex_core.errors import BadInput
 from nfex_core.evaluation import DynChooser, chooser_for, known_methods, static_methods, tuned_static
 from nfex_core.kg import KnowledgeGraph

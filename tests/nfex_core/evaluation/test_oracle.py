@@ -4,10 +4,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from nfex_slam.datasets.schedule import Schedule
+from nfex_slam.vo import Choice, FrameRecord, VOResult
 
-from nfex_core.datasets.schedule import Schedule
 from nfex_core.evaluation.oracle import pair_error, per_pair, per_segment, replay
-from nfex_core.vo import Choice, FrameRecord, VOResult
 
 
 def _run(name: str, errors: list[float | None]) -> VOResult:

@@ -5,8 +5,8 @@ import json
 from pathlib import Path
 
 import pytest
+from nfex_slam.datasets.synthetic import make_sequence
 
-from nfex_core.datasets.synthetic import make_sequence
 from nfex_core.evaluation import SCHEDULE, as_json, evaluate, frames_csv, markdown
 from nfex_core.evaluation.plots import draw
 from nfex_core.kg import KnowledgeGraph

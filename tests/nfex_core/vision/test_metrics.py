@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from nfex_slam.features import Features
 
 from nfex_core.kg.vocab import Vocabulary
 from nfex_core.vision import metrics as M
-from nfex_core.vision.features import Features
 from nfex_core.vision.metrics import compute_metrics
 from nfex_core.vision.registry import ExtractorRegistry
 from nfex_core.vision.transforms import darken

@@ -7,12 +7,12 @@ import cv2
 import numpy as np
 import pytest
 import rdflib
+from nfex_slam.datasets.synthetic import make_sequence
+from nfex_slam.features import Features
 
-from nfex_core.datasets.synthetic import make_sequence
 from nfex_core.errors import ParameterError, UnknownName
 from nfex_core.kg import KnowledgeGraph
 from nfex_core.kg.vocab import Vocabulary
-from nfex_core.vision.features import Features
 from nfex_core.vision.registry import ExtractorRegistry
 
 ONTOLOGY = [Path(__file__).resolve().parents[3] / "ontology" / f for f in ("extractors.ttl", "learned.ttl")]

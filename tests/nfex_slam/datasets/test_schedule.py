@@ -3,10 +3,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from nfex_slam.datasets.corruptions import corrupt
+from nfex_slam.datasets.schedule import Schedule, apply_schedule
+from nfex_slam.datasets.synthetic import make_sequence
 
-from nfex_core.datasets.corruptions import corrupt
-from nfex_core.datasets.schedule import Schedule, apply_schedule
-from nfex_core.datasets.synthetic import make_sequence
 from nfex_core.errors import BadInput
 
 TEXT = "none:0-12,dark:13-25,motion_blur:26-38,overexposed:39-50"

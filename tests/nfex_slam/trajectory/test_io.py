@@ -5,10 +5,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from nfex_slam.trajectory import Trajectory, read_trajectory, write_trajectory
+from nfex_slam.trajectory.io import matrix_to_quaternion, quaternion_to_matrix
 
 from nfex_core.errors import BadInput, DataMissing, ParseError
-from nfex_core.trajectory import Trajectory, read_trajectory, write_trajectory
-from nfex_core.trajectory.io import matrix_to_quaternion, quaternion_to_matrix
 
 
 def _random(n: int = 12, seed: int = 0) -> Trajectory:
@@ -71,8 +71,8 @@ def test_bad_files(tmp_path: Path) -> None:
 
 
 def test_from_sequence_drops_frames_without_ground_truth() -> None:
-    from nfex_core.datasets import ArraySequence, Intrinsics
-    from nfex_core.trajectory import from_sequence
+    from nfex_slam.datasets import ArraySequence, Intrinsics
+    from nfex_slam.trajectory import from_sequence
 
     poses = np.tile(np.eye(4), (4, 1, 1))
     poses[2] = np.nan

@@ -3,8 +3,7 @@ from __future__ import annotations
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
-from nfex_core.vo.geometry import relative_pose, triangulate
+from nfex_slam.vo.geometry import relative_pose, triangulate
 
 K = np.array([[700.0, 0, 620], [0, 700.0, 190], [0, 0, 1]])
 
@@ -56,8 +55,7 @@ def test_mutual_ratio_matching_equals_opencv_knn_and_reverse_match() -> None:
     """The mutual-ratio matcher (XFeat's, from the graph) at BLAS speed gives the pairs that OpenCV's
     brute-force knnMatch (ratio test) plus a reverse match (mutual check) give."""
     import cv2
-
-    from nfex_core.vo.geometry import mutual_ratio_l2
+    from nfex_slam.vo.geometry import mutual_ratio_l2
 
     rng = np.random.default_rng(3)
     a = rng.normal(size=(700, 64)).astype(np.float32)

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from nfex_core.trajectory import Trajectory, ate, rpe
+from nfex_slam.trajectory import Trajectory, ate, rpe
 
 evo_metrics = pytest.importorskip("evo.core.metrics")
 evo_sync = pytest.importorskip("evo.core.sync")
@@ -112,7 +111,7 @@ def test_sim3_recovers_the_scale() -> None:
 def test_real_kitti_00_files_match_evo(data_dir, kind: str, args: dict) -> None:  # type: ignore[no-untyped-def, type-arg]
     """The KITTI files round their rotations to 7 digits: evo's conventions (Rᵀ as the inverse)
     matter at 1e-7 here, unlike on the exact random trajectories."""
-    from nfex_core.trajectory import read_trajectory
+    from nfex_slam.trajectory import read_trajectory
 
     d = data_dir / "trajectories" / "evo"
     ref = read_trajectory(d / "KITTI_00_gt.txt", "kitti")

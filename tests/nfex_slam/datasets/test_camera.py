@@ -3,9 +3,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from nfex_slam.datasets.base import Intrinsics
+from nfex_slam.datasets.camera import distort_points, undistort_points
 
-from nfex_core.datasets.base import Intrinsics
-from nfex_core.datasets.camera import distort_points, undistort_points
 from nfex_core.errors import BadInput
 
 EUROC = Intrinsics(458.654, 457.296, 367.215, 248.375, 752, 480, (-0.28340811, 0.07395907, 0.00019359, 1.76187114e-05))

@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from nfex_slam.trajectory import Trajectory, align, umeyama
+from nfex_slam.trajectory.io import quaternion_to_matrix
 
 from nfex_core.errors import BadInput
-from nfex_core.trajectory import Trajectory, align, umeyama
-from nfex_core.trajectory.io import quaternion_to_matrix
 
 
 def _walk(seed: int, n: int = 30) -> Trajectory:

@@ -28,7 +28,7 @@ is marked lost, its pose follows the last good motion (constant velocity), and t
 matched against it again (frame-to-frame VO has no map to re-initialise). A run whose lost fraction of
 frame pairs exceeds ``max_lost_fraction`` is *failed* (the paper's "fail").
 
-Front-end checks (``nfex_core.motion.StepChecks``, per agent from the graph; off by default): a pair whose rotation
+Front-end checks (``nfex_slam.motion.StepChecks``, per agent from the graph; off by default): a pair whose rotation
 or change of heading exceeds what the agent's motion allows is treated as lost in the same way — every
 method of an evaluation gets the same checks. Every pair's estimate (R, unit t) is kept in its
 FrameRecord, with its rotation and direction errors against the ground truth where the frames have poses.
@@ -38,16 +38,24 @@ from __future__ import annotations
 import json
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from ..datasets.base import Frame, Sequence
+from ..features import Features
 from ..motion import NO_CHECKS, StepChecks, motion_direction, pair_errors, relative_truth
-from ..verification import ACCEPT, NEXT, STILL_PX, PairEvidence, Prior, Verdict
-from ..vision.features import Features
-from ..vision.registry import ExtractorRegistry
+from ..pairs import ACCEPT, NEXT, STILL_PX, PairEvidence, Prior, Verdict
 from .geometry import match, relative_pose, triangulate, undistort
+
+
+class Extractors(Protocol):
+    """What the VO runs a choice with: the server's graph-built registry (nfex_core.vision.registry), or a
+    client's recipes from the service's selections (``nfex_slam.replay.SelectionExtractors``)."""
+
+    def extract(self, name: str, image: np.ndarray, params: Mapping[str, Any] | None = None) -> Features: ...
+
+    def resolve(self, name: str, params: Mapping[str, Any] | None = None) -> dict[str, Any]: ...
 
 
 @dataclass(frozen=True)
@@ -160,7 +168,7 @@ def run_vo(
     sequence: Sequence,
     chooser: Chooser,
     *,
-    registry: ExtractorRegistry,
+    registry: Extractors,
     params: VOParams | None = None,
     measure: Measure | None = None,
     start: int = 0,
@@ -297,7 +305,7 @@ class _Try:
 
 def _try_pair(
     choice: Choice, frame: Frame, prev_frame: Frame, prev_cache: dict[str, Features], seq: Sequence, K: np.ndarray,
-    p: VOParams, registry: ExtractorRegistry, measure: Measure | None,
+    p: VOParams, registry: Extractors, measure: Measure | None,
 ) -> _Try:
     """Extract frame k with ``choice`` (and frame k−1, unless it was extracted with it), match, estimate."""
     feats = registry.extract(choice.extractor, frame.image, choice.params)

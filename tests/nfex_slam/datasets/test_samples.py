@@ -1,9 +1,9 @@
-"""nfex_core.datasets.samples: frames of the data folder's sequences, listed by id."""
+"""nfex_slam.datasets.samples: frames of the data folder's sequences, listed by id."""
 from __future__ import annotations
 
 from pathlib import Path
 
-from nfex_core.datasets.samples import samples
+from nfex_slam.datasets.samples import samples
 
 
 def test_samples_spread_over_each_sequence(data_dir: Path) -> None:

@@ -4,8 +4,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
+from nfex_slam.datasets.synthetic import PLANES, make_sequence
 
-from nfex_core.datasets.synthetic import PLANES, make_sequence
 from nfex_core.errors import ParameterError
 
 

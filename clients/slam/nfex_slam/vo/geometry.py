@@ -21,7 +21,7 @@ import numpy as np
 
 from ..datasets.base import Intrinsics
 from ..datasets.camera import undistort_points
-from ..vision.features import Features
+from ..features import Features
 
 
 @dataclass(frozen=True)

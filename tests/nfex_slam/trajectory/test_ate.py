@@ -8,10 +8,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from nfex_slam.trajectory import Trajectory, associate, ate, read_trajectory, rpe
+from nfex_slam.trajectory.ate import matching_indices, pairs_by_index, pairs_by_path
 
 from nfex_core.errors import BadInput
-from nfex_core.trajectory import Trajectory, associate, ate, read_trajectory, rpe
-from nfex_core.trajectory.ate import matching_indices, pairs_by_index, pairs_by_path
 
 
 def _published(data_dir: Path, name: str) -> dict[str, float]:
@@ -92,7 +92,7 @@ def test_bad_arguments():
 
 
 def test_associate_and_align_gives_what_ate_measures(kitti00) -> None:  # type: ignore[no-untyped-def]
-    from nfex_core.trajectory import associate_and_align
+    from nfex_slam.trajectory import associate_and_align
 
     r, e, a = associate_and_align(kitti00["gt"], kitti00["ORB"], "sim3")
     errors = np.linalg.norm(e.positions - r.positions, axis=1)

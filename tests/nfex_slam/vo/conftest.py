@@ -4,9 +4,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from nfex_slam.datasets import open_sequence
+from nfex_slam.datasets.base import Sequence
 
-from nfex_core.datasets import open_sequence
-from nfex_core.datasets.base import Sequence
 from nfex_core.kg import KnowledgeGraph
 from nfex_core.vision.registry import ExtractorRegistry
 

@@ -3,12 +3,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from nfex_slam.datasets import ArraySequence
+from nfex_slam.datasets.base import Sequence
+from nfex_slam.vo import Choice, VOParams, fixed, run_vo, window_errors
 
-from nfex_core.datasets import ArraySequence
-from nfex_core.datasets.base import Sequence
-from nfex_core.sweeps.cells import window_errors
 from nfex_core.vision.registry import ExtractorRegistry
-from nfex_core.vo import Choice, VOParams, fixed, run_vo
 
 
 def _copy(seq: Sequence, n: int, blank: tuple[int, ...] = ()) -> ArraySequence:
@@ -106,9 +105,10 @@ def test_a_seed_varies_ransac_reproducibly(kitti01: Sequence, registry: Extracto
 
 
 def test_a_verified_pair_escalates_to_the_next_proposal_and_counts_every_try(kitti00: Sequence, registry: ExtractorRegistry) -> None:
+    from nfex_slam.vo import Proposals
+
     from nfex_core.rules.types import AcceptRule, Citation, PairTest, Policy
     from nfex_core.verification import judge
-    from nfex_core.vo import Proposals
 
     seq = _copy(kitti00, 5)
     enough = Policy((AcceptRule((PairTest("inliers", ">=", 30),), (), Citation("urn:a", "accept pair if inliers >= 30", "", "accept")),), 1)

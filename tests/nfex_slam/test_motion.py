@@ -5,8 +5,7 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-
-from nfex_core.motion import (
+from nfex_slam.motion import (
     NO_CHECKS,
     StepChecks,
     angle_between,

@@ -3,10 +3,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from nfex_slam.datasets import make_sequence
+from nfex_slam.vo import fixed, run_vo
 
-from nfex_core.datasets import make_sequence
 from nfex_core.vision.registry import ExtractorRegistry
-from nfex_core.vo import fixed, run_vo
 
 
 @pytest.mark.parametrize("extractor", ["ORB", "SIFT", "AKAZE", "BRISK"])
@@ -36,7 +36,7 @@ def test_triangulated_scale_is_consistent(registry: ExtractorRegistry) -> None:
 
 
 def test_a_straight_path_makes_ate_undefined_not_an_error(registry: ExtractorRegistry) -> None:
-    from nfex_core.sweeps.cells import window_errors
+    from nfex_slam.vo import window_errors
 
     seq = make_sequence(6, 320, 240)
     res = run_vo(seq, fixed("ORB"), registry=registry)

@@ -8,13 +8,13 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from nfex_slam.datasets import open_sequence
+from nfex_slam.datasets.base import Sequence
+from nfex_slam.datasets.euroc import read_sensor_yaml
+from nfex_slam.datasets.handheld import rodrigues
+from nfex_slam.trajectory import read_trajectory
 
-from nfex_core.datasets import open_sequence
-from nfex_core.datasets.base import Sequence
-from nfex_core.datasets.euroc import read_sensor_yaml
-from nfex_core.datasets.handheld import rodrigues
 from nfex_core.errors import BadInput, DataMissing
-from nfex_core.trajectory import read_trajectory
 
 
 def _check_sequence(seq: Sequence, n: int, shape: tuple[int, int]) -> None:
@@ -168,7 +168,7 @@ def test_tum_layout(tmp_path: Path) -> None:
 def test_handheld_poses_and_lens_model_explain_the_checkerboard(data_dir: Path) -> None:
     """Project the board's 9×6 inner corners (4 cm squares, origin at the first corner) with the
     loaded camera-to-world pose, K and the radial_pixel model; compare with the detected corners."""
-    from nfex_core.datasets.camera import distort_points, undistort_points
+    from nfex_slam.datasets.camera import distort_points, undistort_points
 
     seq = open_sequence(data_dir / "handheld", "handheld", "checkerboard")
     board = np.array([[0.04 * x, 0.04 * y, 0.0, 1.0] for y in range(6) for x in range(9)])
@@ -194,7 +194,7 @@ def test_handheld_poses_and_lens_model_explain_the_checkerboard(data_dir: Path) 
 
 def test_euroc_reads_the_asl_ground_truth_csv(tmp_path: Path, data_dir: Path) -> None:
     """Without groundtruth_tum.txt the loader reads mav0/state_groundtruth_estimate0/data.csv."""
-    from nfex_core.trajectory import write_euroc
+    from nfex_slam.trajectory import write_euroc
 
     src = data_dir / "euroc" / "V1_01_easy_micro"
     dst = tmp_path / "V1"

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from nfex_slam.datasets import open_sequence
+from nfex_slam.datasets.corruptions import LABELS, NAMES, corrupt, line_kernel
+from nfex_slam.datasets.synthetic import make_sequence
 
-from nfex_core.datasets import open_sequence
-from nfex_core.datasets.corruptions import LABELS, NAMES, corrupt, line_kernel
-from nfex_core.datasets.synthetic import make_sequence
 from nfex_core.errors import ParameterError, UnknownName
 
 
@@ -141,7 +141,7 @@ def test_forward_motion_blurs_radially() -> None:
 
 
 def test_pose_field_matches_the_measured_field() -> None:
-    from nfex_core.datasets.corruptions import FALLBACK_DEPTH_M, pose_motion
+    from nfex_slam.datasets.corruptions import FALLBACK_DEPTH_M, pose_motion
 
     seq = make_sequence(3, 240, 160, direction=(1.0, 0.0, 0.0), yaw_deg=0.0, step=0.08, planes=("wall",))
     measured = corrupt(seq, "motion_blur", 0.5).flow_field(0)
