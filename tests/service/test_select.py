@@ -49,7 +49,8 @@ def test_context_alone(service: Service) -> None:
     assert given["light"]["source"] == "unknown"
     assert sel["versions"]["graph"] >= 1 and "total" in sel["timings_ms"]
     assert sel["opencv"]["constructor"].endswith("_create")
-    assert set(sel["opencv"]) == {"constructor", "norm", "args", "grid"} and sel["opencv"]["args"]  # how to build α (issue 19)
+    assert set(sel["opencv"]) == {"constructor", "norm", "args", "grid", "matcher", "descriptor_kind"} and sel["opencv"]["args"]  # how to build α (issue 19)
+    assert all(p["opencv"]["constructor"] for p in sel["verification"]["proposals"])  # and each proposal
 
 
 @pytest.mark.parametrize("colour", [False, True])
