@@ -42,18 +42,12 @@ from .kg.vocab import ExtractorSpec, Value
 if TYPE_CHECKING:
     from .kg.store import KnowledgeGraph
 
-MEASURED_SETTINGS = """SELECT ?cfg ?name ?v WHERE {
-    ?cfg a nfex:Configuration ; nfex:hasSetting ?s . ?s nfex:parameter/nfex:opencvName ?name ; nfex:value ?v .
-    FILTER EXISTS { ?m a nfex:Measurement ; sosa:usedProcedure ?cfg }
-}"""
-
-
 def measured_settings(kg: KnowledgeGraph) -> dict[str, dict[str, Value]]:
-    """Configuration IRI → {OpenCV name: value} for every configuration a Measurement used."""
-    settings: dict[str, dict[str, Value]] = {}
-    for r in kg.select(MEASURED_SETTINGS).rows:
-        settings.setdefault(str(r["cfg"]), {})[str(r["name"])] = py(r["v"])
-    return settings
+    """Configuration IRI → {OpenCV name: value} for every configuration a Measurement used (that has settings)."""
+    from .evidence.index import MEASURED_CONFIGURATIONS, read_settings
+
+    found = read_settings(kg, [str(r["cfg"]) for r in kg.select(MEASURED_CONFIGURATIONS).rows])
+    return {c: s for c, s in found.items() if s}
 
 
 def expected_cost_query(configuration: str, extractor: str, width: int, height: int) -> str:

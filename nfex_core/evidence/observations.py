@@ -8,6 +8,7 @@ the editor who accepted it). The rule engine, the cost model and the dynamic bas
 """
 from __future__ import annotations
 
+from collections.abc import Collection
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
@@ -61,11 +62,15 @@ class Observation:
         return any(known.get(d) == v for d, v in self.conditions) and all(known.get(d, v) == v for d, v in self.conditions)
 
 
-def read_observations(kg: KnowledgeGraph) -> list[Observation]:
-    """Every Measurement of the graph (one query; a row per condition value, folded here)."""
+def read_observations(kg: KnowledgeGraph, only: Collection[str] | None = None) -> list[Observation]:
+    """Every Measurement of the graph (one query; a row per condition value, folded here); ``only``: just
+    these IRIs (those that are Measurements), for evidence/index.py's incremental reading."""
     first: dict[str, Observation] = {}
     conditions: dict[str, set[tuple[str, str]]] = {}
-    for r in kg.select(OBSERVATIONS).rows:
+    if only is not None and not only:
+        return []
+    query = OBSERVATIONS if only is None else restricted(OBSERVATIONS, "m", only)
+    for r in kg.select(query).rows:
         m = str(r["m"])
         if m not in first:
             first[m] = Observation(
@@ -83,3 +88,12 @@ def read_observations(kg: KnowledgeGraph) -> list[Observation]:
         if "dim" in r:
             conditions[m].add((str(r["dim"]), str(r["val"])))
     return [replace(o, conditions=frozenset(conditions[m])) for m, o in first.items()]
+
+
+def restricted(query: str, variable: str, iris: Collection[str]) -> str:
+    """``query`` (a SELECT with one top-level ``WHERE {``) with ``?variable`` bound to ``iris`` (a VALUES block)."""
+    values = " ".join(f"<{i}>" for i in sorted(iris))
+    head, sep, rest = query.partition("WHERE {")
+    if not sep:
+        raise ValueError("the query has no WHERE {")
+    return f"{head}WHERE {{ VALUES ?{variable} {{ {values} }}{rest}"

@@ -30,9 +30,10 @@ from typing import TYPE_CHECKING
 from nfex_slam.motion import StepChecks
 from rdflib.term import URIRef
 
-from ..cost import BudgetTerms, CostModel, fit_cost_model, measured_settings
+from ..cost import BudgetTerms, CostModel, fit_cost_model
 from ..errors import NfexError
-from ..evidence import Admission, Observation, TrustPolicy, admit, read_observations, robust
+from ..evidence import Admission, Observation, TrustPolicy, admit, robust
+from ..evidence.index import ObservationIndex
 from ..evidence.view import evidence_view
 from ..kg.terms import py
 from ..kg.vocab import ExtractorSpec, Value
@@ -82,6 +83,7 @@ class RuleTable:
     observed: dict[str, dict[frozenset[tuple[str, str]], list[Observation]]] = field(default_factory=dict)
     admission: Admission = field(default_factory=Admission)
     step_checks: dict[str, StepChecks] = field(default_factory=dict)  # agent → front-end checks (motion.py)
+    index: ObservationIndex | None = field(default=None, repr=False)  # the observations read, for the next compile
     _measured: dict[ContextKey, dict[str, tuple[MeasuredConfiguration, ...]]] = field(default_factory=dict, repr=False)
     _evidenced: set[ContextKey] = field(default_factory=set, repr=False)
 
@@ -177,8 +179,10 @@ def _min_measurements(kg: KnowledgeGraph) -> int:
     return int(py(rows[0]["n"])) if rows else 3
 
 
-def compile_table(kg: KnowledgeGraph) -> RuleTable:
-    """Evaluate every rule and statement for every context of the graph's condition space."""
+def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> RuleTable:
+    """Evaluate every rule and statement for every context of the graph's condition space. ``previous``: the
+    table of an earlier version, whose observations are carried forward (evidence/index.py: only what the
+    change since then can have touched is read again)."""
     t0 = time.perf_counter()
     version = kg.version
     vocab = kg.vocabulary()
@@ -188,7 +192,8 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
 
     errors: list[str] = []
     rules = pruning.load_rules(kg)
-    observations = read_observations(kg)
+    index = previous.index.advance(kg) if previous is not None and previous.index is not None else ObservationIndex.read(kg)
+    observations = index.all()
     admission = admit(observations, TrustPolicy.load(kg))
     evidence = admission.select(observations)
     value_iris = {(d, v): str(spec.iri) for d in dims for v, spec in vocab.dimensions[d].values.items()}
@@ -258,7 +263,7 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
             shapes=in_force,
             verification=Policy(tuple(accept), *(escalation or (DEFAULT_ESCALATIONS, None))),
         )
-    settings = measured_settings(kg)
+    settings = index.measured_settings()
     cost = fit_cost_model(kg, vocab.extractors, settings, evidence)
     budget_terms = BudgetTerms.load(kg)
     step_checks = load_step_checks(kg)
@@ -268,9 +273,11 @@ def compile_table(kg: KnowledgeGraph) -> RuleTable:
         observed.setdefault(o.extractor, {}).setdefault(o.conditions, []).append(o)
     least = _min_measurements(kg)
     ms = (time.perf_counter() - t0) * 1000
-    log.info("compiled %d contexts, %d rules, %d statements at graph version %d in %.0f ms", len(keys), len(rules), len(statements), version, ms)
+    log.info("compiled %d contexts, %d rules, %d statements at graph version %d in %.0f ms (observations: %s in %.0f ms)",
+             len(keys), len(rules), len(statements), version, ms,
+             "read in full" if index.reread < 0 else f"{index.reread} re-read", index.ms)
     return RuleTable(version, dims, decisions, rules, statements, errors, ms, cost, budget_terms,
-                     configurations, least, observed, admission, step_checks=step_checks)
+                     configurations, least, observed, admission, step_checks=step_checks, index=index)
 
 
 BACKEND_RULE = "https://w3id.org/nfex#rule_backend_available"
@@ -286,10 +293,14 @@ def backend_citations(kg: KnowledgeGraph, extractors: Mapping[str, ExtractorSpec
 
 
 class RuleEngine:
-    """The compiled table for the graph's current version, rebuilt when a commit moves the version."""
+    """The compiled table for the graph's current version, rebuilt when a commit moves the version; each
+    rebuild carries the last table's observations forward (compile_table's ``previous``)."""
 
     def __init__(self, kg: KnowledgeGraph) -> None:
         self.kg = kg
+        self._last: RuleTable | None = None
 
     def table(self) -> RuleTable:
-        return self.kg.cached("rule-table", lambda: compile_table(self.kg))
+        table = self.kg.cached("rule-table", lambda: compile_table(self.kg, self._last))
+        self._last = table
+        return table

@@ -1,0 +1,118 @@
+"""Observations carried from one graph version to the next: incremental reading for the rule table's compile.
+
+Reading every Measurement (observations.py) and every measured configuration's settings (cost.py) is most of
+a compile's time on a graph with many measurements, yet a feedback report adds one Measurement. An
+``ObservationIndex`` holds both at graph version v; ``advance(kg)`` brings it to the head by re-reading only
+what the change since v can have touched:
+
+- S: every subject of a triple the change added or removed (kg.diff(v, head));
+- a Measurement's row reads its own triples and, along ``?m → ?cfg → ?extractor``, ``?m → ?condition →
+  ?dimension``, ``?m → ?sequence``, nodes at most two steps away; a configuration's settings read
+  ``?cfg → ?setting → ?parameter``, also two steps. So the affected nodes are S and every node with a path of
+  one or two triples to a member of S (one query), and only those Measurements and configurations are read
+  again (the others' rows cannot have changed);
+- a change too large to pay off (more than ``MAX_SUBJECTS`` subjects), one that touches blank nodes (they
+  cannot be named in a query), or a history that cannot be read is answered by a full read.
+
+The result equals a full read (tests/nfex_core/evidence/test_index.py: random changes, compared with
+``ObservationIndex.read``).
+"""
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Collection, Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from rdflib.term import URIRef
+
+from ..kg.specs import Value
+from ..kg.terms import py
+from .observations import Observation, read_observations, restricted
+
+if TYPE_CHECKING:
+    from ..kg.store import KnowledgeGraph
+
+log = logging.getLogger("nfex.evidence")
+
+MAX_SUBJECTS = 2000  # above this a full read is as cheap as finding what changed
+
+MEASURED_CONFIGURATIONS = "SELECT DISTINCT ?cfg WHERE { ?m a nfex:Measurement ; sosa:usedProcedure ?cfg }"
+SETTINGS = """SELECT ?cfg ?name ?v WHERE {
+    ?cfg a nfex:Configuration ; nfex:hasSetting ?s . ?s nfex:parameter/nfex:opencvName ?name ; nfex:value ?v .
+}"""
+NEAR = """SELECT DISTINCT ?x WHERE {
+    { ?x ?p ?s } UNION { ?x ?p ?o . ?o ?q ?s }
+    FILTER (isIRI(?x))
+}"""
+
+
+def read_settings(kg: KnowledgeGraph, configurations: Collection[str]) -> dict[str, dict[str, Value]]:
+    """Configuration IRI → {OpenCV name: value}, for ``configurations`` (each present, {} without settings)."""
+    out: dict[str, dict[str, Value]] = {c: {} for c in configurations}
+    if out:
+        for r in kg.select(restricted(SETTINGS, "cfg", out)).rows:
+            out[str(r["cfg"])][str(r["name"])] = py(r["v"])
+    return out
+
+
+@dataclass(frozen=True)
+class ObservationIndex:
+    """Every Measurement (by IRI) and every measured configuration's settings at graph ``version``."""
+
+    version: int
+    observations: Mapping[str, Observation]
+    settings: Mapping[str, dict[str, Value]]  # every configuration a Measurement used; {} where it has no settings
+    reread: int = -1  # Measurements and configurations read again by the last advance (−1: a full read)
+    ms: float = 0.0
+
+    @classmethod
+    def read(cls, kg: KnowledgeGraph) -> ObservationIndex:
+        """A full read at the head."""
+        t0 = time.perf_counter()
+        version = kg.version
+        observations = read_observations(kg)
+        configurations = [str(r["cfg"]) for r in kg.select(MEASURED_CONFIGURATIONS).rows]
+        return cls(version, {o.iri: o for o in observations}, read_settings(kg, configurations),
+                   ms=(time.perf_counter() - t0) * 1000)
+
+    def all(self) -> list[Observation]:
+        """The observations, sorted by IRI (a full read's order does not matter to any reader; this one is stable)."""
+        return [self.observations[i] for i in sorted(self.observations)]
+
+    def measured_settings(self) -> dict[str, dict[str, Value]]:
+        """As cost.measured_settings: the configurations a Measurement used that have settings."""
+        return {c: dict(s) for c, s in self.settings.items() if s}
+
+    def advance(self, kg: KnowledgeGraph) -> ObservationIndex:
+        """The index at the head, reading again only what the change since ``version`` can have touched."""
+        t0 = time.perf_counter()
+        head = kg.version
+        if head == self.version:
+            return self
+        try:
+            change = kg.diff(self.version, head)
+        except Exception as e:  # a pruned or unreadable history: read everything
+            log.info("observation index: no diff from version %d (%s); reading all", self.version, e)
+            return ObservationIndex.read(kg)
+        subjects = {t[0] for t in (*change.added, *change.removed)}
+        if len(subjects) > MAX_SUBJECTS or any(not isinstance(s, URIRef) or not _nameable(str(s)) for s in subjects):
+            return ObservationIndex.read(kg)
+        touched = {str(s) for s in subjects}
+        if touched:
+            touched |= {str(r["x"]) for r in kg.select(restricted(NEAR, "s", touched)).rows if _nameable(str(r["x"]))}
+        observations = dict(self.observations)
+        for iri in touched:
+            observations.pop(iri, None)
+        observations.update((o.iri, o) for o in read_observations(kg, touched))
+        configurations = {str(r["cfg"]) for r in kg.select(MEASURED_CONFIGURATIONS).rows}
+        stale = (configurations - set(self.settings)) | (configurations & touched)
+        settings = {c: self.settings[c] for c in configurations if c not in stale}
+        settings.update(read_settings(kg, stale))
+        return ObservationIndex(head, observations, settings, len(touched), (time.perf_counter() - t0) * 1000)
+
+
+def _nameable(iri: str) -> bool:
+    """Whether ``iri`` can be written as ``<iri>`` in a query."""
+    return not any(c in iri for c in '<>"{}|^`\\ \n\t')
