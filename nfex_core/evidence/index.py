@@ -42,8 +42,10 @@ MEASURED_CONFIGURATIONS = "SELECT DISTINCT ?cfg WHERE { ?m a nfex:Measurement ; 
 SETTINGS = """SELECT ?cfg ?name ?v WHERE {
     ?cfg a nfex:Configuration ; nfex:hasSetting ?s . ?s nfex:parameter/nfex:opencvName ?name ; nfex:value ?v .
 }"""
+# the bound pattern first: Oxigraph joins in the written order, and ``?x ?p ?o . ?o ?q ?s`` scans the graph
+# (380 ms on 34k statements against 0.2 ms)
 NEAR = """SELECT DISTINCT ?x WHERE {
-    { ?x ?p ?s } UNION { ?x ?p ?o . ?o ?q ?s }
+    { ?x ?p ?s } UNION { ?o ?q ?s . ?x ?p ?o }
     FILTER (isIRI(?x))
 }"""
 
