@@ -24,7 +24,6 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
-import socket
 import statistics
 import subprocess
 import sys
@@ -38,6 +37,8 @@ import httpx
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
+
+from _timing import free_port  # noqa: E402
 
 from nfex_core.config import Settings  # noqa: E402
 from nfex_core.kg import sparql_update  # noqa: E402
@@ -59,12 +60,6 @@ def new_node(i: int, triples: int) -> str:
 
 def hub_edit(i: int, triples: int) -> str:
     return f"INSERT DATA {{ nfex:ORB rdfs:seeAlso <https://example.org/bench/{time.time_ns()}-{i}> }}"
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def p50(xs: list[float]) -> float:

@@ -34,7 +34,7 @@ import httpx
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from bench_service import free_port, wait  # noqa: E402
+from _timing import free_port, wait_ok  # noqa: E402
 
 from nfex_core.knowledge import open_graph  # noqa: E402
 
@@ -152,7 +152,7 @@ def main() -> None:
                                    env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             base = f"http://127.0.0.1:{port}"
             try:
-                wait(base + "/readyz", svc)
+                wait_ok(base + "/readyz", svc)
                 runs[name] = measure(base, args, tokens)
             finally:
                 svc.terminate()

@@ -26,17 +26,10 @@ from collections import Counter
 from pathlib import Path
 
 import httpx
+from _timing import free_port  # noqa: E402  (bench/ is the script's folder, first on sys.path)
 
 ROOT = Path(__file__).resolve().parent.parent
 TOKEN = "fuzz-token-0123456789"
-
-
-def free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def start(store: Path, log: Path, role: str) -> tuple[subprocess.Popen[bytes], str]:

@@ -42,8 +42,8 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _synthetic import synthetic  # noqa: E402
+from _timing import free_port, wait_ok  # noqa: E402
 from bench_fleet import measure, pct  # noqa: E402
-from bench_service import free_port  # noqa: E402
 
 from nfex_core.config import Settings  # noqa: E402
 from nfex_core.kg import KnowledgeGraph  # noqa: E402
@@ -105,20 +105,6 @@ def start_oxigraph(folder: Path) -> tuple[subprocess.Popen[bytes], str]:
     url = f"http://127.0.0.1:{port}"
     wait_ok(url + "/query?query=ASK%7B%7D", proc, 60)
     return proc, url
-
-
-def wait_ok(url: str, proc: subprocess.Popen[bytes], timeout: float) -> None:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if proc.poll() is not None:
-            raise SystemExit(f"the process (pid {proc.pid}) exited with {proc.returncode} before {url} answered")
-        try:
-            if httpx.get(url, timeout=2).status_code == 200:
-                return
-        except httpx.HTTPError:
-            pass
-        time.sleep(0.1)
-    raise SystemExit(f"{url} did not answer 200 within {timeout} s")
 
 
 def p50_ms(n: int, call: Callable[[], httpx.Response]) -> float:

@@ -40,7 +40,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
 
-from _timing import call_ms  # noqa: E402
+from _timing import call_ms, free_port, wait_ok  # noqa: E402
 
 from nfex_core.advisor import Advisor  # noqa: E402
 from nfex_core.config import Settings  # noqa: E402
@@ -54,27 +54,6 @@ CONTEXT = {"agent": "car", "motion": "fast", "scene": "outdoor", "light": "brigh
 FRAME_CONTEXTS: dict[str, dict[str, object]] = {"car (no budget)": {"agent": "car"}, "car (20 ms budget)": {"agent": "car", "budget_ms": "20"},
                                                  "drone (its 20 ms budget)": {"agent": "drone"}}
 STREAM_CONTEXT: dict[str, object] = {"agent": "car"}
-
-
-def free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-def wait(url: str, proc: subprocess.Popen) -> None:  # type: ignore[type-arg]
-    for _ in range(600):
-        if proc.poll() is not None:
-            raise SystemExit(f"{proc.args} exited with {proc.returncode}")
-        try:
-            if httpx.get(url, timeout=1).status_code == 200:
-                return
-        except httpx.HTTPError:
-            pass
-        time.sleep(0.1)
-    raise SystemExit(f"{url} did not answer")
 
 
 def timed(n: int, call: Callable[[], httpx.Response], warmup: int = 50) -> list[float]:
@@ -243,8 +222,8 @@ def main() -> None:
                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     base, obase = f"http://127.0.0.1:{port}", f"http://127.0.0.1:{oport}"
     try:
-        wait(base + "/readyz", svc)
-        wait(obase + "/query?query=ASK%7B%7D", oxi)
+        wait_ok(base + "/readyz", svc)
+        wait_ok(obase + "/query?query=ASK%7B%7D", oxi)
         print(f"loopback, {os.cpu_count()} CPUs, {args.n} sequential requests per row (one keep-alive connection)")
         row("advisor.select in-process, context (baseline)", in_process)
         for (name, label), ms in frame_in_process.items():
