@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .evidence import Observation, admitted, read_observations, robust
+from .evidence.index import MEASURED_CONFIGURATIONS, read_settings
 from .kg.terms import py
 from .kg.vocab import ExtractorSpec, Value
 
@@ -44,8 +45,6 @@ if TYPE_CHECKING:
 
 def measured_settings(kg: KnowledgeGraph) -> dict[str, dict[str, Value]]:
     """Configuration IRI → {OpenCV name: value} for every configuration a Measurement used (that has settings)."""
-    from .evidence.index import MEASURED_CONFIGURATIONS, read_settings
-
     found = read_settings(kg, [str(r["cfg"]) for r in kg.select(MEASURED_CONFIGURATIONS).rows])
     return {c: s for c, s in found.items() if s}
 

@@ -196,18 +196,19 @@ class Advisor:
         if nn.active:
             nn.prepare(cond.values, frame_stats(cond.stats))
             laps("neural")
-        key = (snap.version, tuple(sorted(cond.values.items())), budget.as_dict() if budget else None, nn.info.get("used"))
-        last = previous.decided if previous is not None else None
-        if cond.image is not None and last is not None and previous is not None:
+        # decision reuse (reuse.py) is off unless the graph allows it: then nothing of it runs per request
+        key = (snap.version, tuple(sorted(cond.values.items())), budget.as_dict() if budget else None,
+               nn.info.get("used")) if snap.reuse.frames and cond.image is not None else None
+        if key is not None and previous is not None and previous.decided is not None:
             from ..vision.statistics import FRAME_KEYS
 
-            if reusable(snap.reuse, last, key, cond.stats, FRAME_KEYS):
-                return self._reused(last, cond, previous, laps)
+            if reusable(snap.reuse, previous.decided, key, cond.stats, FRAME_KEYS):
+                return self._reused(previous.decided, cond, previous, laps)
         params, scored = self._score(snap, decision, cond, budget, nn, previous)
         laps("selection")
         escalations = self._escalations(snap, decision, cond, budget, nn)
         answer = self._answer(snap, decision, cond, budget, nn, params, scored, laps.timings, escalations)
-        if snap.reuse.frames and answer.state is not None and cond.stats is not None:  # what the next frames may reuse
+        if key is not None and answer.state is not None and cond.stats is not None:  # what the next frames may reuse
             decided = Decided(key, dict(cond.stats), replace(answer, state=None))
             answer = replace(answer, state=replace(answer.state, decided=decided))
         return answer

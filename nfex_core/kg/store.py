@@ -384,13 +384,13 @@ class KnowledgeGraph:
         until = self.version if until is None else until
         if not 0 <= since <= self.version or not 0 <= until <= self.version:
             raise NotFound(f"versions must lie in 0..{self.version}")
-        net = ChangeSet()
+        net = ChangeSet()  # the range is checked above: each version's change set is read directly
         if since <= until:
             for n in range(since + 1, until + 1):
-                net = net.then(self.changes(n))
+                net = net.then(read_changes(self.backend, n))
         else:
             for n in range(since, until, -1):
-                net = net.then(self.changes(n).inverse())
+                net = net.then(read_changes(self.backend, n).inverse())
         return net
 
     def rollback(self, to: int, *, author: str, expected_version: int | None = None) -> CommitResult:
