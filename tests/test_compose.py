@@ -9,6 +9,7 @@ import re
 import shutil
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -104,8 +105,16 @@ def test_the_build_context_leaves_local_state_out() -> None:
                  ".pytest_cache", ".mypy_cache", ".ruff_cache", ".hypothesis"):
         assert ignored(path), path
     for path in ("pyproject.toml", "README.md", "nfex_core/kg/store.py", "service/main.py", "ontology/nfex.ttl",
-                 "rules/nfex.lark", "models/default/manifest.json"):
+                 "rules/nfex.lark", "models/default/manifest.json", "clients/slam/nfex_slam/vo/pipeline.py"):
         assert not ignored(path), path
+    # what the service stage copies exists, is in the build context, and holds every package the wheel ships
+    copied = {source for line in _stages((ROOT / "Dockerfile").read_text())["service"]
+              if line.upper().startswith("COPY ") and "--from" not in line for source in line.split()[1:-1]}
+    for source in copied:
+        assert (ROOT / source).exists() and not ignored(source), source
+    wheel = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["hatch"]["build"]["targets"]["wheel"]
+    for package in wheel["packages"]:
+        assert package in copied, f"the wheel ships {package}; the Dockerfile does not copy it"
 
 
 def test_the_service_image_runs_as_a_user() -> None:
