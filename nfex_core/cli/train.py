@@ -12,23 +12,27 @@ from .common import err, open_kg, settings
 
 
 def train(
-    table: Annotated[Path, typer.Option("--table", help="The sweep's training table (CSV, one row per window × configuration).")],
+    table: Annotated[list[Path], typer.Option("--table", help="A sweep's training table (CSV or .csv.gz, one row per window × "
+                                             "configuration); repeat to concatenate several.")],
     out: Annotated[Path | None, typer.Option("--out", help="Model folder to write (default: $NFEX_MODELS/default).")] = None,
     epochs: Annotated[int | None, typer.Option("--epochs", help="Passes over the training windows (default: enough for 4,000 Adam steps, at least 300).")] = None,
     lr: Annotated[float, typer.Option("--lr", help="Adam learning rate (the paper: 1e-4).")] = 1e-4,
     batch: Annotated[int, typer.Option("--batch", help="Batch size (the paper: 8).")] = 8,
     val_sequences: Annotated[
         list[str] | None,
-        typer.Option("--val-sequences", help="Sequences held out for validation (dataset/sequence or name; repeatable). "
-                     "Default: the last sequence; with one sequence, its second half."),
+        typer.Option("--val-sequences", help="Validate on these sequences only (dataset/sequence or name; repeatable). "
+                     "Default: leave each sequence out once; with one sequence, its second half."),
     ] = None,
-    refit_all: Annotated[bool, typer.Option("--refit-all", help="After validating, train the shipped weights again on every window.")] = False,
+    refit_all: Annotated[bool, typer.Option("--refit-all", help="After validating on one split, train the shipped weights "
+                                            "again on every window (always so after leave-one-sequence-out).")] = False,
     no_images: Annotated[bool, typer.Option("--no-images", help="Train SelectorNet without frames (image bit 0).")] = False,
     seed: Annotated[int, typer.Option("--seed")] = 0,
 ) -> None:
-    """Train both networks, report validation loss/accuracy, and write a versioned model folder."""
-    if not table.is_file():
-        raise DataMissing(f"no training table at {table}")
+    """Validate both networks against the best constant and the lookup by labels, train the shipped weights,
+    and write a versioned model folder; a network that does not beat both is not used by default."""
+    for t in table:
+        if not t.is_file():
+            raise DataMissing(f"no training table at {t}")
     try:
         from ..neural.train import train as run
     except ImportError as e:  # torch is a training-only dependency
@@ -47,4 +51,8 @@ def train(
         )  # fmt: skip
     except ValueError as e:
         raise BadInput(str(e)) from None
-    typer.echo(json.dumps({"model": str(report.path), "split": report.split, "windows": report.windows, "validation": report.metrics}, indent=2))
+    from ..neural.artifacts import NeuralModel
+
+    gates = NeuralModel.load(report.path).validation_gates()
+    typer.echo(json.dumps({"model": str(report.path), "split": report.split, "windows": report.windows,
+                           "validation": report.metrics, "not_used_by_default": gates}, indent=2))  # fmt: skip

@@ -109,11 +109,18 @@ def parse_rdf(data: str | bytes, *, format: str = "turtle", source: str = "<inpu
 
 
 def read_rdf_file(path: Path) -> rdflib.Graph:
-    fmt = RDF_FORMATS.get(path.suffix.lower())
+    """An RDF file by its suffix; ``.gz`` after it (``x.nt.gz``, ``x.ttl.gz``) is read through gzip."""
+    zipped = path.suffix.lower() == ".gz"
+    suffix = Path(path.stem).suffix if zipped else path.suffix
+    fmt = RDF_FORMATS.get(suffix.lower())
     if fmt is None:
-        raise ParseError(f"{path}: unknown RDF file type {path.suffix!r}; use one of {', '.join(sorted(RDF_FORMATS))}")
+        raise ParseError(f"{path}: unknown RDF file type {suffix!r}; use one of {', '.join(sorted(RDF_FORMATS))} (optionally .gz)")
     try:
         data = path.read_bytes()
-    except OSError as e:
-        raise BadInput(f"{path}: cannot read: {e.strerror}") from e
+        if zipped:
+            import gzip
+
+            data = gzip.decompress(data)
+    except (OSError, EOFError) as e:
+        raise BadInput(f"{path}: cannot read: {getattr(e, 'strerror', None) or e}") from e
     return parse_rdf(data, format=fmt, source=str(path))

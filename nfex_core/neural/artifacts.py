@@ -75,20 +75,36 @@ class NeuralModel:
         return out
 
     def validation_gates(self) -> dict[str, str]:
-        """The networks whose validation did not beat the trivial baseline, with the numbers.
+        """The networks that did not beat every baseline of their validation (``validation``), with the numbers.
 
-        A tie counts against the network: a selector that is only as good as always answering the
-        majority extractor has learned nothing the rules do not already say (regression test:
-        tests/nfex_core/neural/test_artifacts.py)."""
+        ParamNet needs a lower MSE than the best constant and the lookup by condition labels; SelectorNet a
+        higher accuracy *and* a lower regret than both. A tie counts against the network: one only as good
+        as a constant has learned nothing a config file does not say. A network validated before these
+        baselines existed (only against the training majority or mean) is not used either
+        (tests/nfex_core/neural/test_artifacts.py)."""
         m = self.manifest.get("metrics") or {}
         out: dict[str, str] = {}
         pn, sn = m.get("paramnet") or {}, m.get("selectornet") or {}
-        if "val_mse" in pn and pn["val_mse"] >= pn.get("val_mse_train_mean", float("inf")):
-            out["paramnet"] = f"validation MSE {pn['val_mse']} >= {pn['val_mse_train_mean']} of predicting the training mean"
-        if "val_accuracy" in sn and sn["val_accuracy"] <= sn.get("val_accuracy_majority", -1.0):
-            out["selectornet"] = (
-                f"validation accuracy {sn['val_accuracy']} <= {sn['val_accuracy_majority']} of always answering {sn.get('majority')}"
-            )
+        if self.paramnet is not None:
+            base = {n: pn[k] for n, k in (("the best constant", "val_mse_best_constant"), ("the lookup", "val_mse_lookup")) if k in pn}
+            if "val_mse" not in pn or not base:
+                out["paramnet"] = "not validated against a constant predictor and the lookup (train it again)"
+            elif pn["val_mse"] >= min(base.values()):
+                name = min(base, key=lambda n: base[n])
+                out["paramnet"] = f"validation MSE {pn['val_mse']} >= {base[name]} of {name}"
+        if self.selectornet is not None:
+            keys = ("val_accuracy_best_constant", "val_regret_best_constant", "val_accuracy_lookup", "val_regret_lookup")
+            if "val_accuracy" not in sn or any(k not in sn for k in keys):
+                out["selectornet"] = "not validated against a constant predictor and the lookup (train it again)"
+            else:
+                acc = max(sn["val_accuracy_best_constant"], sn["val_accuracy_lookup"])
+                reg = min(sn["val_regret_best_constant"], sn["val_regret_lookup"])
+                if sn["val_accuracy"] <= acc or sn["val_regret"] >= reg:
+                    out["selectornet"] = (
+                        f"validation accuracy {sn['val_accuracy']} and regret {sn['val_regret']} against the best constant "
+                        f"({sn.get('best_constant')}: {sn['val_accuracy_best_constant']}, {sn['val_regret_best_constant']}) "
+                        f"and the lookup ({sn['val_accuracy_lookup']}, {sn['val_regret_lookup']}): it must beat both on both"
+                    )
         return out
 
     def check(self, vocab: Vocabulary) -> str | None:

@@ -9,15 +9,17 @@ per window its context labels, the frame statistics of its first frame, and the 
 from __future__ import annotations
 
 import csv
+import gzip
 import json
 import logging
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 import numpy as np
 
+from ..sweeps.table import WINDOW
 from .selectornet import prepare_image
 
 log = logging.getLogger(__name__)
@@ -38,6 +40,8 @@ class Window:
     best_params: dict[str, dict[str, Any]] = field(default_factory=dict)  # extractor → Θ of its best row
     metrics: dict[str, dict[str, float]] = field(default_factory=dict)  # extractor → m of its best row
     label: str | None = None  # extractor of the best_overall row
+    ate: dict[str, float] = field(default_factory=dict)  # extractor → its lowest ATE in the window (successful rows)
+    schedule: str = ""  # the condition schedule of a scheduled window (corruption "schedule")
     image: np.ndarray | None = None  # prepared for SelectorNet
 
     @property
@@ -56,34 +60,48 @@ def _float(text: str | None) -> float | None:
         return None
 
 
-def read_table(path: Path) -> list[Window]:
-    """Group the table's rows into windows (dataset, sequence, corruption, severity, seed, window_start)."""
+def open_table(path: Path) -> IO[str]:
+    """A training table, plain or gzip-compressed (``.gz``)."""
+    return gzip.open(path, "rt", newline="") if path.suffix == ".gz" else path.open(newline="")
+
+
+def read_table(paths: Path | Sequence[Path]) -> list[Window]:
+    """Group the rows of one or more tables into windows (dataset, sequence, corruption, schedule, severity,
+    seed, window_start); tables are concatenated, so a window measured in two of them is one window."""
     windows: dict[tuple[str, ...], Window] = {}
-    with path.open(newline="") as f:
-        for row in csv.DictReader(f):
-            key = tuple(row.get(k, "") for k in ("dataset", "sequence", "corruption", "severity", "seed", "window_start"))
-            w = windows.get(key)
-            if w is None:
-                w = windows[key] = Window(
-                    dataset=row["dataset"],
-                    sequence=row["sequence"],
-                    corruption=row.get("corruption") or "none",
-                    severity=row.get("severity", ""),
-                    seed=row.get("seed", ""),
-                    start=int(float(row["window_start"])),
-                    end=int(float(row.get("window_end") or row["window_start"])),
-                    context={k[4:]: (v or None) for k, v in row.items() if k.startswith("ctx.")},
-                    stats={k[5:]: s for k, v in row.items() if k.startswith("stat.") and (s := _float(v)) is not None},
-                    pixels=int(float(row.get("width") or 0) * float(row.get("height") or 0)),
-                )
-            failed = _flag(row, "failed")
-            x = row["extractor"]
-            if _flag(row, "best_for_extractor") and not failed:
-                w.best_params[x] = json.loads(row["params"])
-                w.metrics[x] = {k[2:]: m for k, v in row.items() if k.startswith("m.") and (m := _float(v)) is not None}
-            if _flag(row, "best_overall") and not failed:
-                w.label = x
+    for path in [paths] if isinstance(paths, Path) else paths:
+        with open_table(path) as f:
+            for row in csv.DictReader(f):
+                _add_row(windows, row)
     return list(windows.values())
+
+
+def _add_row(windows: dict[tuple[str, ...], Window], row: dict[str, str]) -> None:
+    key = tuple(row.get(k) or "" for k in WINDOW)
+    w = windows.get(key)
+    if w is None:
+        w = windows[key] = Window(
+            dataset=row["dataset"],
+            sequence=row["sequence"],
+            corruption=row.get("corruption") or "none",
+            severity=row.get("severity", ""),
+            seed=row.get("seed", ""),
+            start=int(float(row["window_start"])),
+            end=int(float(row.get("window_end") or row["window_start"])),
+            context={k[4:]: (v or None) for k, v in row.items() if k.startswith("ctx.")},
+            stats={k[5:]: s for k, v in row.items() if k.startswith("stat.") and (s := _float(v)) is not None},
+            pixels=int(float(row.get("width") or 0) * float(row.get("height") or 0)),
+            schedule=row.get("schedule") or "",
+        )
+    failed = _flag(row, "failed")
+    x = row["extractor"]
+    if not failed and (a := _float(row.get("ate_rmse"))) is not None and a < w.ate.get(x, float("inf")):
+        w.ate[x] = a
+    if _flag(row, "best_for_extractor") and not failed:
+        w.best_params[x] = json.loads(row["params"])
+        w.metrics[x] = {k[2:]: m for k, v in row.items() if k.startswith("m.") and (m := _float(v)) is not None}
+    if _flag(row, "best_overall") and not failed:
+        w.label = x
 
 
 def split(windows: Sequence[Window], val_sequences: Sequence[str] | None = None) -> tuple[list[Window], list[Window], str]:
@@ -112,6 +130,21 @@ def split(windows: Sequence[Window], val_sequences: Sequence[str] | None = None)
     return tr, va, note
 
 
+Fold = tuple[list[Window], list[Window]]  # (train, validate)
+
+
+def folds(windows: Sequence[Window], val_sequences: Sequence[str] | None = None) -> tuple[list[Fold], str]:
+    """The validation folds. With two or more sequences, leave-one-sequence-out: each sequence is validated
+    once, by a model trained on all the others. ``val_sequences`` names one held-out set instead, and a
+    table of one sequence is split by the halves of its frames (``split``)."""
+    keys = sorted({w.seq_key for w in windows})
+    if val_sequences or len(keys) < 2:
+        tr, va, note = split(windows, val_sequences)
+        return [(tr, va)], note
+    out = [([w for w in windows if w.seq_key != k], [w for w in windows if w.seq_key == k]) for k in keys]
+    return out, f"leave-one-sequence-out: {len(keys)} folds, each of {keys} validated by a model trained on the others"
+
+
 ImageSource = Callable[[Window], "np.ndarray | None"]
 
 
@@ -124,19 +157,27 @@ def default_image_source(data_dir: Path) -> ImageSource:
         try:
             from nfex_slam.datasets import open_sequence
             from nfex_slam.datasets.corruptions import corrupt
+            from nfex_slam.datasets.schedule import Schedule, apply_schedule
         except ImportError:
             return None
-        return open_sequence, corrupt
+
+        def condition(seq: Any, w: Window) -> Any:
+            severity, seed = float(w.severity or 1), int(float(w.seed or 0))
+            if w.corruption == "schedule":
+                return apply_schedule(seq, Schedule.parse(w.schedule, len(seq)), severity, seed=seed)
+            return corrupt(seq, w.corruption, severity, seed=seed)
+
+        return open_sequence, condition
 
     def source(w: Window) -> np.ndarray | None:
         fns = loaders()
         if fns is not None:
             try:
-                key = (w.dataset, w.sequence, w.corruption, w.severity, w.seed)
+                key = (w.dataset, w.sequence, w.corruption, w.schedule, w.severity, w.seed)
                 if key not in cache:
                     seq = fns[0](data_dir / w.dataset, w.dataset, w.sequence)
                     if w.corruption not in ("", "none"):
-                        seq = fns[1](seq, w.corruption, float(w.severity or 1), seed=int(float(w.seed or 0)))
+                        seq = fns[1](seq, w)
                     cache[key] = seq
                 return prepare_image(cache[key][w.start].image)
             except Exception as e:  # noqa: BLE001 - a window without its image still trains, with the bit at 0

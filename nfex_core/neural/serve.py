@@ -5,10 +5,10 @@ Modes (the paper's ablations): ``symbolic`` (g(Θ, E) and F_metrics only), ``par
 ``default`` model in it) is loaded on first use, once, and checked against each graph version's
 vocabulary; a missing model or a changed vocabulary falls back to symbolic and the Selection says why.
 
-In ``both``, a network whose validation is worse than its trivial baseline (ParamNet: MSE above that
-of predicting the training mean; SelectorNet: accuracy below always answering the training majority)
-is not used, and the Selection says so (``versions.model.skipped``); ``paramnet`` and ``selectornet``
-force their network, for the ablations.
+In ``both``, a network that did not beat every baseline of its validation (``validation``: the best
+constant predictor and the lookup by condition labels, leave-one-sequence-out) is not used, and the
+Selection says so (``versions.model.skipped``) and which source decided (``versions.model.used``);
+``paramnet`` and ``selectornet`` force their network, for the ablations.
 
 Θ′ is the network's, as in the paper (rules' factors are not multiplied on top: the network learned
 from the sweep's best configurations in that context, so the context would count twice); the graph

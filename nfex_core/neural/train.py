@@ -20,10 +20,11 @@ import numpy as np
 from ..kg.vocab import Vocabulary
 from . import torch_nets
 from .artifacts import NeuralModel, code_version, new_version, sha256_file
-from .dataset import ImageSource, Window, default_image_source, read_table, split
+from .dataset import ImageSource, Window, default_image_source, folds, read_table
 from .encoding import InputVocabulary, Scaler
 from .paramnet import ParamNet
 from .selectornet import IMAGE_HW, SelectorNet, numeric_input
+from .validation import Validation
 
 P_HIDE_CONTEXT, P_HIDE_METRICS, P_HIDE_IMAGE = 0.2, 0.3, 0.1
 
@@ -130,7 +131,7 @@ def fit(A: Arrays, inputs: InputVocabulary, n_stats: int, *, epochs: int, lr: fl
 
 
 def train(
-    table: Path,
+    table: Path | Sequence[Path],
     out: Path,
     vocab: Vocabulary,
     *,
@@ -144,18 +145,18 @@ def train(
     seed: int = 0,
     log: Callable[[str], None] = print,
 ) -> TrainReport:
-    """Train both networks on the training split of ``table``, validate on the held-out sequences, write
-    the artifact to ``out``. ``refit_all``: the shipped weights are then trained again, from scratch with
-    the same settings, on every window (the reported validation is the split's)."""
+    """Validate both networks on the folds of ``table`` (one table or several, concatenated; see
+    ``dataset.folds``: leave-one-sequence-out by default) against the baselines of ``validation``, then write
+    the artifact to ``out``. The shipped weights are trained again, from scratch with the same settings, on
+    every window where validation had several folds or ``refit_all`` asks; otherwise they are the split's."""
     import torch
 
     torch.manual_seed(seed)
     torch.set_num_threads(1)
     gen = torch.Generator().manual_seed(seed)
     inputs = InputVocabulary.from_vocabulary(vocab)
-    windows = read_table(table)
-    tr, va, note = split(windows, val_sequences)
-    log(note)
+    tables = [table] if isinstance(table, Path) else list(table)
+    windows = read_table(tables)
     source = images if images is not None else (default_image_source(data_dir) if data_dir is not None else None)
     if source is not None:
         for w in windows:
@@ -165,22 +166,28 @@ def train(
     def scaler_of(ws: Sequence[Window]) -> Scaler:
         return Scaler.fit(keys, np.array([[w.stats.get(k, np.nan) for k in keys] for w in ws], np.float64))
 
-    scaler = scaler_of(tr)
-    A, V = encode(tr, inputs, scaler), encode(va, inputs, scaler)
-    n_epochs = epochs or auto_epochs(len(tr), batch)
-    log(f"training on {len(tr)} windows, validating on {len(va)}: Adam lr {lr}, batch {batch}, {n_epochs} epochs")
+    fold_list, note = folds(windows, val_sequences)
+    log(note)
+    validation = Validation(inputs)
     t0 = time.perf_counter()
-    pnet, snet = fit(A, inputs, len(keys), epochs=n_epochs, lr=lr, batch=batch, gen=gen)
-    train_s = time.perf_counter() - t0
-    metrics = evaluate_arrays(pnet, snet, A, V, inputs)
-    metrics["train_seconds"] = round(train_s, 2)
-    trained_on = A
-    if refit_all:
+    for tr, va in fold_list:
+        scaler = scaler_of(tr)
+        A, V = encode(tr, inputs, scaler), encode(va, inputs, scaler)
+        n_epochs = epochs or auto_epochs(len(tr), batch)
+        log(f"training on {len(tr)} windows, validating on {len(va)}: Adam lr {lr}, batch {batch}, {n_epochs} epochs")
+        pnet, snet = fit(A, inputs, len(keys), epochs=n_epochs, lr=lr, batch=batch, gen=gen)
+        validation.add(pnet, snet, tr, va, A, V)
+    metrics: dict[str, Any] = {"validation": note, **validation.metrics(), "train_seconds": round(time.perf_counter() - t0, 2)}
+    refit = refit_all or len(fold_list) > 1  # leave-one-sequence-out has no one training split to ship
+    weights_windows, trained_on = tr, A
+    if refit:
+        weights_windows = windows
         scaler = scaler_of(windows)
         trained_on = encode(windows, inputs, scaler)
-        log(f"refitting on all {len(windows)} windows")
+        n_epochs = epochs or auto_epochs(len(windows), batch)
+        log(f"training the shipped weights on all {len(windows)} windows, {n_epochs} epochs")
         pnet, snet = fit(trained_on, inputs, len(keys), epochs=n_epochs, lr=lr, batch=batch, gen=gen)
-    sha = sha256_file(table)
+    sha = sha256_tables(tables)
     model = NeuralModel(
         inputs=inputs,
         scaler=scaler,
@@ -191,12 +198,12 @@ def train(
             "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
             "code": code_version(),
             "data": {
-                "table": str(table),
+                "table": ", ".join(str(t) for t in tables),
                 "sha256": sha,
-                "windows": {"train": len(tr), "validate": len(va), "all": len(windows)},
+                "windows": {"folds": [[len(t), len(v)] for t, v in fold_list], "all": len(windows)},
                 "sequences": sorted({w.seq_key for w in windows}),
                 "split": note,
-                "weights_trained_on": "all windows (refit after validation)" if refit_all else "the training split",
+                "weights_trained_on": "all windows (refit after validation)" if refit else "the training split",
                 "with_image": sum(w.image is not None for w in windows),
             },
             "training": {"optimizer": "Adam", "lr": lr, "batch": batch, "epochs": n_epochs, "seed": seed, "torch": torch.__version__},
@@ -204,17 +211,26 @@ def train(
             # ParamNet outputs that had a target in training; the advisor uses g(Θ, E) for the others
             "paramnet_trained": [p.qualified for p, n in zip(inputs.params, trained_on.ymask.sum(0), strict=True) if n > 0],
             # the normalised values measured per parameter: served outputs snap to the nearest
-            "paramnet_grid": measured_grid(windows if refit_all else tr, inputs),
+            "paramnet_grid": measured_grid(weights_windows, inputs),
             # what the inputs covered: unseen context values are served as unknown, unmeasured extractors masked
             "context_seen": {
-                d: sorted({v for w in (windows if refit_all else tr) if (v := w.context.get(d))})
+                d: sorted({v for w in (weights_windows) if (v := w.context.get(d))})
                 for d, _ in inputs.dimensions
             },
-            "selectornet_extractors": sorted({x for w in (windows if refit_all else tr) for x in w.best_params}),
+            "selectornet_extractors": sorted({x for w in (weights_windows) for x in w.best_params}),
         },
     )
     model.save(out)
-    return TrainReport(out, note, {"train": len(tr), "validate": len(va)}, metrics)
+    return TrainReport(out, note, {"folds": len(fold_list), "validated": sum(len(v) for _, v in fold_list), "all": len(windows)}, metrics)
+
+
+def sha256_tables(tables: Sequence[Path]) -> str:
+    """The data's fingerprint: one table's sha256, or the sha256 of the tables' sha256s in order."""
+    if len(tables) == 1:
+        return sha256_file(tables[0])
+    import hashlib
+
+    return hashlib.sha256("".join(sha256_file(t) for t in tables).encode()).hexdigest()
 
 
 def measured_grid(windows: Sequence[Window], inputs: InputVocabulary) -> dict[str, list[float]]:
@@ -225,33 +241,3 @@ def measured_grid(windows: Sequence[Window], inputs: InputVocabulary) -> dict[st
             for i, v in inputs.reference_params(x, theta, w.pixels or None).items():
                 grid.setdefault(inputs.params[i].qualified, set()).add(round(v, 9))
     return {q: sorted(vs) for q, vs in sorted(grid.items())}
-
-
-def evaluate_arrays(pnet: ParamNet, snet: SelectorNet, A: Arrays, V: Arrays, inputs: InputVocabulary) -> dict[str, Any]:
-    """Validation MSE of ParamNet (and of the training mean, a baseline); accuracy and cross-entropy of SelectorNet
-    (and of always answering the training set's most frequent extractor)."""
-    out: dict[str, Any] = {}
-    if V.ymask.sum() > 0:
-        pred = pnet.forward(np.concatenate([V.ctx, V.stats], 1))
-        mean = (A.y * A.ymask).sum(0) / np.maximum(A.ymask.sum(0), 1)
-        out["paramnet"] = {
-            "val_mse": round(float((((pred - V.y) ** 2) * V.ymask).sum() / V.ymask.sum()), 6),
-            "val_mse_train_mean": round(float((((mean - V.y) ** 2) * V.ymask).sum() / V.ymask.sum()), 6),
-            "val_targets": int(V.ymask.sum()),
-        }
-    lab = V.labels >= 0
-    if lab.any():
-        logits = snet.forward(V.images[lab], V.numeric[lab])
-        z = logits - logits.max(1, keepdims=True)
-        logp = z - np.log(np.exp(z).sum(1, keepdims=True))
-        y = V.labels[lab]
-        counts = np.bincount(A.labels[A.labels >= 0], minlength=len(inputs.extractors))
-        out["selectornet"] = {
-            "val_accuracy": round(float((logits.argmax(1) == y).mean()), 4),
-            "val_cross_entropy": round(float(-logp[np.arange(len(y)), y].mean()), 6),
-            "val_accuracy_majority": round(float((y == counts.argmax()).mean()), 4),
-            "majority": inputs.extractors[int(counts.argmax())],
-            "val_windows": int(lab.sum()),
-            "val_label_counts": {inputs.extractors[i]: int(k) for i, k in enumerate(np.bincount(y, minlength=len(inputs.extractors)))},
-        }
-    return out

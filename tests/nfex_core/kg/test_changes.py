@@ -1,6 +1,9 @@
 """The change-set algebra that versions and rollbacks rest on (property tests)."""
 from __future__ import annotations
 
+from pathlib import Path
+
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from rdflib import Literal, URIRef
@@ -50,3 +53,21 @@ def test_rollback_by_composed_inverses(state, steps) -> None:  # type: ignore[no
     for c in reversed(changes):
         net = net.then(c.inverse())
     assert apply(history[-1], net) == state
+
+
+def test_read_rdf_file_reads_gzip_by_the_inner_suffix(tmp_path: Path) -> None:
+    """Shipped measurement bundles are compressed N-Triples or Turtle (`kg add x.nt.gz`)."""
+    import gzip
+
+    from nfex_core.errors import BadInput, ParseError
+    from nfex_core.kg.changes import read_rdf_file
+
+    text = "<urn:a> <urn:p> \"1\" .\n<urn:b> <urn:p> <urn:a> .\n"
+    (tmp_path / "m.nt.gz").write_bytes(gzip.compress(text.encode()))
+    (tmp_path / "m.nt").write_text(text)
+    assert set(read_rdf_file(tmp_path / "m.nt.gz")) == set(read_rdf_file(tmp_path / "m.nt")) and len(read_rdf_file(tmp_path / "m.nt")) == 2
+    with pytest.raises(ParseError, match="unknown RDF file type '.csv'"):
+        read_rdf_file(tmp_path / "m.csv.gz")
+    (tmp_path / "bad.ttl.gz").write_bytes(b"not gzip at all")
+    with pytest.raises(BadInput, match="cannot read"):
+        read_rdf_file(tmp_path / "bad.ttl.gz")

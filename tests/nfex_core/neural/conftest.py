@@ -36,7 +36,7 @@ def trained(seeded_template: Path, tmp_path_factory: pytest.TempPathFactory) -> 
     kg = KnowledgeGraph.open(str(d / "store"))
     try:
         vocab = kg.vocabulary()
-        table = make_table(d / "table.csv", vocab)
+        table = make_table(d / "table.csv", vocab, labelled=0.5)
         report = train(table, d / "model", vocab, epochs=150, log=lambda _m: None)
     finally:
         kg.close()

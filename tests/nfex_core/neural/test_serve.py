@@ -186,11 +186,11 @@ def test_nfex_select_reports_the_model(trained, store_path: Path, tmp_path: Path
 
 def test_both_skips_a_network_that_validated_worse_than_its_baseline(trained, kg: KnowledgeGraph, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     _, model = trained
-    metrics = {**model.manifest["metrics"], "paramnet": {"val_mse": 0.05, "val_mse_train_mean": 0.01}}
+    metrics = {**model.manifest["metrics"], "paramnet": {"val_mse": 0.05, "val_mse_best_constant": 0.01, "val_mse_lookup": 0.02}}
     d = _edited(model, tmp_path, metrics=metrics)
     both = Advisor(kg, models=d).select(DARK)
     assert both.versions["model"]["used"] == "selectornet"
-    assert "0.05 >= 0.01" in both.versions["model"]["skipped"]["paramnet"]
+    assert "0.05 >= 0.01 of the best constant" in both.versions["model"]["skipped"]["paramnet"]
     assert both.params == symbolic_params(kg, both.extractor, DARK)
     forced = Advisor(kg, models=d, neural="paramnet").select(DARK)
     assert forced.versions["model"]["used"] == "paramnet" and "skipped" not in forced.versions["model"]
