@@ -45,7 +45,8 @@ def sweep(
     address: Annotated[str | None, typer.Option(help="Ray cluster address (with --executor ray).")] = None,
     workers: Annotated[int, typer.Option(help="Worker processes (local) or CPUs of a local Ray.")] = 2,
     batch: Annotated[int, typer.Option(help="Measurements per graph transaction.")] = 32,
-    export: Annotated[Path | None, typer.Option(help="Afterwards, write all measurements as Turtle here.")] = None,
+    export: Annotated[Path | None, typer.Option(help="Afterwards, write the measurements of the table's cells here "
+                      "(Turtle; .nt N-Triples; .gz compressed).")] = None,
     author: Annotated[str | None, typer.Option(help="Author recorded on the graph versions.")] = None,
     json_out: Annotated[bool, typer.Option("--json", help="Print the counts as JSON.")] = False,
     progress: Annotated[bool, typer.Option(help="Show a progress bar with ETA.")] = True,
@@ -71,7 +72,9 @@ def sweep(
         counts = run_sweep(spec, kg, csv, run=run, executor=executor.value, workers=workers, address=address,
                            batch=batch, author=author_of(author), progress=progress)
         if export is not None:
-            counts["exported_triples"] = export_measurements(kg, export)
+            from ..sweeps.table import read as read_rows
+
+            counts["exported_triples"] = export_measurements(kg, export, cells=[str(r["cell"]) for r in read_rows(csv)])
     finally:
         kg.close()
     if json_out:

@@ -26,7 +26,7 @@ def frames(data_dir: Path) -> dict[str, list[np.ndarray]]:
     return {name: [cv2.imread(str(p), cv2.IMREAD_GRAYSCALE) for p in paths] for name, paths in (("kitti", kitti), ("euroc", euroc))}
 
 
-@pytest.mark.parametrize("neural", ["both", "symbolic"])
+@pytest.mark.parametrize("neural", ["selectornet", "both", "symbolic"])  # both: what the gate leaves on
 def test_pruned_scoring_answers_as_exhaustive_scoring(shipped_kg: KnowledgeGraph, data_dir: Path, neural: str) -> None:
     pruned, exhaustive = Advisor(shipped_kg, neural=neural), Advisor(shipped_kg, neural=neural, exhaustive_scoring=True)
     skipped = 0
@@ -63,7 +63,7 @@ def test_a_skipped_candidate_is_extracted_on_the_next_frame_when_needed(shipped_
     """A candidate skipped on frame t is owed to frame t+1's temporal metrics: extracted there from frame t's
     scoring copy with frame t's Θ′, its features equal a direct extraction."""
     images = frames(data_dir)["kitti"][:2]
-    advisor = Advisor(shipped_kg, neural="both")
+    advisor = Advisor(shipped_kg, neural="selectornet")
     first = advisor.select({"agent": "car"}, images[0])
     assert first.state is not None and first.state.owed, "SelectorNet's choice was not settled by bounds here"
     x, params = next(iter(first.state.owed.items()))
@@ -81,7 +81,7 @@ def test_a_bound_decides_only_with_the_margin(shipped_kg: KnowledgeGraph, data_d
     from nfex_core.neural import serve
 
     image = frames(data_dir)["kitti"][0]
-    advisor = Advisor(shipped_kg, neural="both")
+    advisor = Advisor(shipped_kg, neural="selectornet")
     nn = advisor.neural.step(shipped_kg.vocabulary())
     assert nn.selectornet and nn.model is not None and nn.model.selectornet is not None
     nn.prepare({"agent": "car"}, None)

@@ -46,6 +46,17 @@ def test_sweep_writes_rows_and_measurements_and_resumes(kg: KnowledgeGraph, data
     out = tmp_path / "m.ttl"
     assert export_measurements(kg, out) > 100
     assert "nfex:Measurement" in out.read_text()
+    # only the cells asked for, compressed N-Triples: exactly their Measurements, and it loads back
+    from rdflib import RDF
+
+    from nfex_core.kg.changes import read_rdf_file
+    from nfex_core.namespaces import NFEX
+
+    mine = tmp_path / "m.nt.gz"
+    cells = [r["cell"] for r in table.read(csv)][:2]
+    n = export_measurements(kg, mine, cells=cells)
+    g = read_rdf_file(mine)
+    assert len(g) == n and len(set(g.subjects(RDF.type, NFEX.Measurement))) == 2
 
 
 @pytest.mark.slow
