@@ -8,18 +8,17 @@ per window its context labels, the frame statistics of its first frame, and the 
 """
 from __future__ import annotations
 
-import csv
-import gzip
 import json
 import logging
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 import numpy as np
 
 from ..sweeps.table import WINDOW
+from ..sweeps.table import read as read_rows
 from .selectornet import prepare_image
 
 log = logging.getLogger(__name__)
@@ -60,19 +59,13 @@ def _float(text: str | None) -> float | None:
         return None
 
 
-def open_table(path: Path) -> IO[str]:
-    """A training table, plain or gzip-compressed (``.gz``)."""
-    return gzip.open(path, "rt", newline="") if path.suffix == ".gz" else path.open(newline="")
-
-
 def read_table(paths: Path | Sequence[Path]) -> list[Window]:
     """Group the rows of one or more tables into windows (dataset, sequence, corruption, schedule, severity,
     seed, window_start); tables are concatenated, so a window measured in two of them is one window."""
     windows: dict[tuple[str, ...], Window] = {}
     for path in [paths] if isinstance(paths, Path) else paths:
-        with open_table(path) as f:
-            for row in csv.DictReader(f):
-                _add_row(windows, row)
+        for row in read_rows(path):
+            _add_row(windows, row)
     return list(windows.values())
 
 

@@ -42,9 +42,10 @@ def _fmt(v: Any) -> str:
 
 
 def read(path: Path) -> list[dict[str, str]]:
+    """A training table's rows (none where it does not exist); ``.gz`` is read through gzip."""
     if not path.exists():
         return []
-    with path.open(newline="") as f:
+    with gzip.open(path, "rt", newline="") if path.suffix == ".gz" else path.open(newline="") as f:
         return list(csv.DictReader(f))
 
 
@@ -90,8 +91,9 @@ PAIR_COLUMNS = [
 
 
 def pairs_path(table: Path) -> Path:
-    """The per-pair table beside a training table: ``kitti00.csv`` → ``kitti00-pairs.csv.gz``."""
-    return table.with_name(table.stem + "-pairs.csv.gz")
+    """The per-pair table beside a training table: ``kitti00.csv`` (or ``kitti00.csv.gz``) → ``kitti00-pairs.csv.gz``."""
+    name = table.name.removesuffix(".gz")
+    return table.with_name(name.removesuffix(".csv") + "-pairs.csv.gz")
 
 
 def write_pairs(path: Path, rows: Sequence[Mapping[str, Any]]) -> None:
