@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import itertools
 import logging
+import threading
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
@@ -34,7 +35,7 @@ from ..cost import BudgetTerms, CostModel, fit_cost_model
 from ..errors import NfexError
 from ..evidence import Admission, Observation, TrustPolicy, admit, robust
 from ..evidence.index import ObservationIndex
-from ..evidence.view import evidence_view
+from ..evidence.view import EvidenceView, evidence_view
 from ..kg.terms import py
 from ..kg.vocab import ExtractorSpec, Value
 from ..motion import load_step_checks
@@ -58,6 +59,7 @@ if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
 
 log = logging.getLogger("nfex.rules")
+_TAKE = threading.Lock()  # RuleTable.take_view
 
 
 
@@ -84,11 +86,18 @@ class RuleTable:
     admission: Admission = field(default_factory=Admission)
     step_checks: dict[str, StepChecks] = field(default_factory=dict)  # agent → front-end checks (motion.py)
     index: ObservationIndex | None = field(default=None, repr=False)  # the observations read, for the next compile
+    view: EvidenceView | None = field(default=None, repr=False, compare=False)  # the rules' view, for the next compile
     _measured: dict[ContextKey, dict[str, tuple[MeasuredConfiguration, ...]]] = field(default_factory=dict, repr=False)
     _evidenced: set[ContextKey] = field(default_factory=set, repr=False)
 
     def key(self, context: Mapping[str, str | None]) -> ContextKey:
         return tuple(context.get(d) for d in self.dimensions)
+
+    def take_view(self) -> EvidenceView | None:
+        """The evidence view, handed to one next compile only (which changes it in place)."""
+        with _TAKE:
+            view, self.view = self.view, None
+        return view
 
     def decide(self, context: Mapping[str, str | None]) -> Decision:
         """The decision for a context (values must be checked against the vocabulary beforehand); its
@@ -197,8 +206,13 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     admission = admit(observations, TrustPolicy.load(kg))
     evidence = admission.select(observations)
     value_iris = {(d, v): str(spec.iri) for d in dims for v, spec in vocab.dimensions[d].values.items()}
-    view = evidence_view(kg, admission, evidence, {x: str(e.iri) for x, e in vocab.extractors.items()}, value_iris) \
-        if rules else kg.backend
+    extractor_iris = {x: str(e.iri) for x, e in vocab.extractors.items()}
+    carried = previous.take_view() if previous is not None and rules else None
+    made: EvidenceView | None = None
+    if rules:
+        made = carried.advance(kg, admission, evidence, extractor_iris, value_iris) if carried is not None \
+            else evidence_view(kg, admission, evidence, extractor_iris, value_iris)
+    view = made.backend if made is not None else kg.backend
     pruned_by_rules: dict[int, list[tuple[str, Citation]]] = {}
     for rule in rules:
         try:
@@ -277,7 +291,7 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
              len(keys), len(rules), len(statements), version, ms,
              "read in full" if index.reread < 0 else f"{index.reread} re-read", index.ms)
     return RuleTable(version, dims, decisions, rules, statements, errors, ms, cost, budget_terms,
-                     configurations, least, observed, admission, step_checks=step_checks, index=index)
+                     configurations, least, observed, admission, step_checks=step_checks, index=index, view=made)
 
 
 BACKEND_RULE = "https://w3id.org/nfex#rule_backend_available"

@@ -1,0 +1,109 @@
+"""A view advanced from the last one (evidence/view.py, ``EvidenceView.advance``) equals a fresh view.
+
+Random changes on the shipped graph — those of test_index.py, plus the trust setting flipped so that reports
+leave or enter quarantine together — and after each batch the advanced view holds exactly the triples of a
+view made from a dump of the store; the rule table compiled from the carried view equals a full compile."""
+from __future__ import annotations
+
+import io
+import random
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from nfex_core.evidence import TrustPolicy, admit
+from nfex_core.evidence.index import ObservationIndex
+from nfex_core.evidence.view import EvidenceView, evidence_view
+from nfex_core.feedback import Feedback, ReportWriter
+from nfex_core.kg import KnowledgeGraph
+from nfex_core.rules.engine import compile_table
+
+from .test_index import OPS, PREFIXES, _apply
+
+
+def _view(kg: KnowledgeGraph, previous: EvidenceView | None = None) -> EvidenceView:
+    vocab = kg.vocabulary()
+    observations = ObservationIndex.read(kg).all()
+    admission = admit(observations, TrustPolicy.load(kg))
+    values = {(d, v): str(s.iri) for d, dim in vocab.dimensions.items() for v, s in dim.values.items()}
+    extractors = {x: str(e.iri) for x, e in vocab.extractors.items()}
+    args = (kg, admission, admission.select(observations), extractors, values)
+    return previous.advance(*args) if previous is not None else evidence_view(*args)
+
+
+def _triples(view: EvidenceView) -> set[bytes]:
+    dump = io.BytesIO()
+    view.backend.query_to("CONSTRUCT { ?s ?p ?o } WHERE { ?s ?p ?o }", "application/n-triples", dump)
+    return set(dump.getvalue().splitlines()) - {b""}
+
+
+def _trust(kg: KnowledgeGraph, rng: random.Random) -> None:
+    n = rng.choice([1, 2, 3])
+    kg.update(PREFIXES + f'DELETE {{ nfex:minSources nfex:value ?n }} INSERT {{ nfex:minSources nfex:value {n} }} '
+              "WHERE { OPTIONAL { nfex:minSources nfex:value ?n } }", author="pytest")
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(ops=st.lists(st.sampled_from((*OPS, "trust", "trust")), min_size=1, max_size=4), seed=st.integers(0, 2**32 - 1))
+def test_an_advanced_view_equals_a_fresh_view_after_random_changes(shipped_kg: KnowledgeGraph, ops: list[str], seed: int) -> None:
+    rng = random.Random(seed)
+    before = _view(shipped_kg)
+    quarantined = before.quarantined
+    writer = ReportWriter(shipped_kg, max_items=1)
+    try:
+        for op in ops:
+            _trust(shipped_kg, rng) if op == "trust" else _apply(shipped_kg, op, rng, writer)
+    finally:
+        writer.close()
+    advanced = _view(shipped_kg, before)
+    fresh = _view(shipped_kg)
+    assert advanced.version == fresh.version == shipped_kg.version
+    assert advanced.incremental and advanced.backend is before.backend
+    assert advanced.quarantined == fresh.quarantined and advanced.summary == fresh.summary
+    assert _triples(advanced) == _triples(fresh), f"quarantined before {len(quarantined)}, after {len(fresh.quarantined)}"
+
+
+def test_a_compile_carries_the_view_and_answers_as_a_full_compile(shipped_kg: KnowledgeGraph) -> None:
+    first = compile_table(shipped_kg)
+    assert first.view is not None and not first.view.incremental
+    writer = ReportWriter(shipped_kg, max_items=1)
+    try:
+        for reporter in ("r1", "r2", "r3"):  # corroborated by three sources: admitted, so the summaries change
+            writer.write(Feedback("ORB", {}, {"agent": "car", "light": "dark"}, sequence="s9", dataset="pytest", reporter=reporter,
+                                  frames=10, ate_rmse=40.0, extraction_ms=4.0, width=1241, height=376, tracking_lost=9))
+    finally:
+        writer.close()
+    carried = compile_table(shipped_kg, first)
+    assert first.view is None, "a view is handed to one compile only"
+    assert carried.view is not None and carried.view.incremental
+    full = compile_table(shipped_kg)
+    assert _triples(carried.view) == _triples(full.view)  # type: ignore[arg-type]
+    assert carried.decisions == full.decisions and carried.errors == full.errors
+
+
+def test_a_view_read_while_a_commit_landed_is_not_advanced(shipped_kg: KnowledgeGraph) -> None:
+    """A view whose version could not be pinned (a commit landed during its reads) is replaced, not advanced."""
+    view = _view(shipped_kg)
+    stale = EvidenceView(-1, view.backend, view.quarantined, view.summary)
+    again = _view(shipped_kg, stale)
+    assert not again.incremental and again.backend is not view.backend
+
+
+def test_reports_that_leave_and_enter_quarantine_get_their_triples_back_and_lose_them(shipped_kg: KnowledgeGraph) -> None:
+    writer = ReportWriter(shipped_kg, max_items=1)
+    try:
+        writer.write(Feedback("SIFT", {}, {"agent": "drone"}, sequence="s8", dataset="pytest", reporter="r1",
+                              frames=10, ate_rmse=0.2, extraction_ms=40.0, width=752, height=480, tracking_lost=0))
+    finally:
+        writer.close()
+    before = _view(shipped_kg)
+    assert before.quarantined, "a report from one reporter waits for corroboration"
+    rng = random.Random(0)
+    for wanted in (1, 3):  # admitted, then quarantined again
+        while True:
+            _trust(shipped_kg, rng)
+            if TrustPolicy.load(shipped_kg).min_sources == wanted:
+                break
+        before = _view(shipped_kg, before)
+        assert bool(before.quarantined) == (wanted == 3)
+        assert _triples(before) == _triples(_view(shipped_kg))
