@@ -145,8 +145,9 @@ def _delete_data(store: ox.Store, lines: Sequence[str]) -> None:
 
 
 def _insert_data(store: ox.Store, lines: Sequence[str]) -> None:
-    if lines:
-        store.load("\n".join(lines).encode() + b"\n", format=ox.RdfFormat.N_TRIPLES)
+    """Statements as a version writes them (``ChangeText``: SPARQL terms, long literals included; not N-Triples)."""
+    for i in range(0, len(lines), _BATCH):
+        store.update("INSERT DATA {\n" + "\n".join(lines[i : i + _BATCH]) + "\n}")
 
 
 def _delete_subjects(store: ox.Store, iris: Iterable[str]) -> None:

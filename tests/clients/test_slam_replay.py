@@ -29,9 +29,9 @@ def test_replay_kitti01_through_a_session(service: Service, data_dir: Path, tmp_
 
 
 def _replay_and_evaluate(template: Path, settings: Any, data_dir: Path, tmp_path: Path, frames: int,
-                         program: Path | None = None) -> tuple[Any, Any]:
+                         *programs_: Path) -> tuple[Any, Any]:
     """The replay through a running service on one copy of ``template`` and `nfex evaluate`'s nfex run 0 on
-    another (``program`` applied to both first)."""
+    another (``programs_`` applied to both first)."""
     import shutil
 
     from nfex_slam.datasets import open_sequence
@@ -45,7 +45,7 @@ def _replay_and_evaluate(template: Path, settings: Any, data_dir: Path, tmp_path
 
     for name in ("served", "local"):
         shutil.copytree(template, tmp_path / name, ignore=shutil.ignore_patterns("LOCK"))
-        if program is not None:
+        for program in programs_:
             kg = KnowledgeGraph.open(str(tmp_path / name), settings=settings)
             try:
                 p, graph = programs.load(program, kg.vocabulary(), settings)
@@ -70,7 +70,7 @@ def _replay_and_evaluate(template: Path, settings: Any, data_dir: Path, tmp_path
 def test_replay_prints_the_ate_nfex_evaluate_reports(shipped_template: tuple[Path, Any], data_dir: Path, tmp_path: Path) -> None:
     """The issue's check: through a running service (its own copy of the shipped graph) the replay's ATE
     equals `nfex evaluate`'s for nfex (run 0) on another copy, frame for frame the same choices."""
-    res, run = _replay_and_evaluate(*shipped_template, data_dir, tmp_path, frames=20)
+    res, run = _replay_and_evaluate(*shipped_template, data_dir, tmp_path, 20)
     assert [s["extractor"] for s in res.selections] == [s["extractor"] for s in run.selections]
     assert [s["params"] for s in res.selections] == [s["params"] for s in run.selections]
     assert res.ate_rmse is not None and res.ate_rmse == pytest.approx(run.ate_rmse, abs=1e-9)
@@ -82,7 +82,26 @@ def test_a_verified_replay_is_judged_by_the_service_as_nfex_evaluate_judges_it(s
     asks the service's /verdict after each; its trajectory equals `nfex evaluate`'s, pair by pair the same
     verdicts, so the HTTP protocol and the in-process loop are one policy."""
     program = ROOT / "rules" / "verification" / "verification.nfex"
-    res, run = _replay_and_evaluate(*shipped_template, data_dir, tmp_path, frames=12, program=program)
+    # this client runs OpenCV recipes only, so XFeat (a learned backend) is kept out of both sides' proposals
+    opencv_only = tmp_path / "opencv_only.nfex"
+    opencv_only.write_text('program opencv_only\nprune XFEAT\n    because "the replay client runs OpenCV recipes only"\n')
+    res, run = _replay_and_evaluate(*shipped_template, data_dir, tmp_path, 12, program, opencv_only)
     assert run.result is not None and run.tries > 1  # the loop did escalate: verification was in force
     assert [s["extractor"] for s in res.selections] == [s["extractor"] for s in run.selections]
     assert res.ate_rmse is not None and res.ate_rmse == pytest.approx(run.ate_rmse, abs=1e-9)
+
+
+def test_a_proposal_on_a_learned_backend_is_noted_and_refused_only_when_run() -> None:
+    """Regression: one verification proposal of XFeat (no OpenCV constructor in its recipe) made the replay
+    fail on receipt, before the VO had tried anything; it now fails, with the reason, only if the VO runs it."""
+    import numpy as np
+    from nfex_slam.errors import BadInput
+    from nfex_slam.replay import SelectionExtractors
+
+    ex = SelectionExtractors()
+    ex.learn("XFEAT", {"top_k": 4096}, {"constructor": "", "norm": "NORM_L2", "args": {"top_k": 4096}})
+    ex.learn("ORB", {"nfeatures": 500}, {"constructor": "ORB_create", "norm": "NORM_HAMMING", "args": {"nfeatures": 500}})
+    image = np.zeros((64, 64), np.uint8)
+    assert ex.extract("ORB", image, {"nfeatures": 500}).xy.shape[1] == 2
+    with pytest.raises(BadInput, match="XFEAT runs on a learned backend"):
+        ex.extract("XFEAT", image, {"top_k": 4096})

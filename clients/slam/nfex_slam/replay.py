@@ -32,6 +32,7 @@ import numpy as np
 from nfex_client import NfexClient
 
 from .datasets import open_sequence
+from .errors import BadInput
 from .features import Features, Recipe, extract
 from .pairs import PairEvidence, Verdict
 from .trajectory import Trajectory, ate, write_tum
@@ -45,17 +46,26 @@ class SelectionExtractors:
 
     def __init__(self) -> None:
         self.recipes: dict[tuple[str, str], Recipe] = {}
+        self.learned: set[tuple[str, str]] = set()  # named with a learned backend: no OpenCV recipe to run
 
     @staticmethod
     def _key(name: str, params: Mapping[str, Any] | None) -> tuple[str, str]:
         return name, json.dumps(dict(params or {}), sort_keys=True, default=str)
 
     def learn(self, name: str, params: Mapping[str, Any], opencv: Mapping[str, Any] | None) -> None:
-        if opencv:
+        """Keep the recipe of (α, Θ′). One without an OpenCV constructor (a learned backend such as XFeat) is
+        noted, not refused: a verification proposal may name it without the VO ever trying it."""
+        if opencv and opencv.get("constructor"):
             self.recipes[self._key(name, params)] = Recipe.from_selection(opencv)
+        elif opencv:
+            self.learned.add(self._key(name, params))
 
     def extract(self, name: str, image: np.ndarray, params: Mapping[str, Any] | None = None) -> Features:
-        recipe = self.recipes.get(self._key(name, params))
+        key = self._key(name, params)
+        recipe = self.recipes.get(key)
+        if recipe is None and key in self.learned:
+            raise BadInput(f"{name} runs on a learned backend, which this client cannot run from a recipe; "
+                           "keep it out of the session (prune it with a rule)")
         if recipe is None:
             raise KeyError(f"the service sent no recipe for {name} with {dict(params or {})}")
         return extract(name, recipe, image)

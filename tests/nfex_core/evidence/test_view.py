@@ -107,3 +107,12 @@ def test_reports_that_leave_and_enter_quarantine_get_their_triples_back_and_lose
         before = _view(shipped_kg, before)
         assert bool(before.quarantined) == (wanted == 3)
         assert _triples(before) == _triples(_view(shipped_kg))
+
+
+def test_a_literal_with_a_line_break_is_carried(shipped_kg: KnowledgeGraph) -> None:
+    """Regression: added statements were loaded as N-Triples, which has no line breaks in literals (a rule's
+    SPARQL text has them), and the advance failed."""
+    before = _view(shipped_kg)
+    shipped_kg.update(PREFIXES + 'INSERT DATA { <urn:nfex:test:note> rdfs:comment """two\nlines""" }', author="pytest")
+    advanced = _view(shipped_kg, before)
+    assert advanced.incremental and _triples(advanced) == _triples(_view(shipped_kg))
