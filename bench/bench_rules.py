@@ -71,7 +71,7 @@ def main() -> None:
     observations = read_observations(kg)
     admission = admit(observations, TrustPolicy.load(kg))
     value_iris = {(d, v): str(spec.iri) for d in dims for v, spec in vocab.dimensions[d].values.items()}
-    view = evidence_view(kg, admission, admission.select(observations), {x: str(e.iri) for x, e in vocab.extractors.items()}, value_iris)
+    view = evidence_view(kg, admission, admission.select(observations), {x: str(e.iri) for x, e in vocab.extractors.items()}, value_iris).backend
     dump = io.BytesIO()
     view.query_to("CONSTRUCT { ?s ?p ?o } WHERE { ?s ?p ?o }", "application/n-triples", dump)
     data = rdflib.Graph().parse(data=dump.getvalue().decode(), format="nt")
