@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from nfex_slam.datasets.base import Sequence
-from nfex_slam.datasets.schedule import Schedule, apply_schedule
+from nfex_slam.datasets.schedule import SCHEDULE, Schedule, under
 from nfex_slam.motion import NO_CHECKS, StepChecks
 from nfex_slam.vo import VOParams, VOResult, run_vo
 
@@ -37,8 +37,6 @@ from .segments import by_segment, run_errors, transitions
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
-
-SCHEDULE = "schedule"
 
 
 @dataclass
@@ -135,17 +133,6 @@ class Evaluation:
         return best[2] if best is not None else None
 
 
-def _variant(seq: Sequence, condition: str, severity: float, run: int, schedule: Schedule | None) -> Sequence:
-    if condition == SCHEDULE:
-        assert schedule is not None
-        return apply_schedule(seq, schedule, severity, seed=run)
-    if condition == "none":
-        return seq
-    from nfex_slam.datasets.corruptions import corrupt
-
-    return corrupt(seq, condition, severity, seed=run)
-
-
 def evaluate(
     sequence: Sequence,
     kg: KnowledgeGraph,
@@ -189,7 +176,7 @@ def evaluate(
     context = {k: v for k, v in seq.context.items() if v}
     for condition in conditions:
         for r in range(runs):
-            trial.start(condition, r, _variant(seq, condition, severity, r, sched))
+            trial.start(condition, r, under(seq, condition, severity, r, sched))
             static_runs: dict[str, VOResult] = {}
             for method, budget in jobs:
                 chooser, note = chooser_for(method, vocab, table, advisor, context, budget)

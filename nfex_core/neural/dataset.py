@@ -149,16 +149,12 @@ def default_image_source(data_dir: Path) -> ImageSource:
     def loaders() -> tuple[Any, Any] | None:
         try:
             from nfex_slam.datasets import open_sequence
-            from nfex_slam.datasets.corruptions import corrupt
-            from nfex_slam.datasets.schedule import Schedule, apply_schedule
+            from nfex_slam.datasets.schedule import under
         except ImportError:
             return None
 
         def condition(seq: Any, w: Window) -> Any:
-            severity, seed = float(w.severity or 1), int(float(w.seed or 0))
-            if w.corruption == "schedule":
-                return apply_schedule(seq, Schedule.parse(w.schedule, len(seq)), severity, seed=seed)
-            return corrupt(seq, w.corruption, severity, seed=seed)
+            return under(seq, w.corruption, float(w.severity or 1), int(float(w.seed or 0)), w.schedule or None)
 
         return open_sequence, condition
 

@@ -107,15 +107,10 @@ def load_sequence(cell: Cell) -> Sequence:
     key = (cell.path, cell.format, cell.sequence, cell.corruption, cell.severity, cell.seed, cell.schedule)
     seq = _SEQUENCES.get(key)
     if seq is None:
-        seq = open_sequence(cell.path, cell.format, cell.sequence or None)
-        if cell.corruption == "schedule":
-            from nfex_slam.datasets.schedule import Schedule, apply_schedule
+        from nfex_slam.datasets.schedule import under
 
-            seq = apply_schedule(seq, Schedule.parse(cell.schedule, len(seq)), cell.severity, seed=cell.seed)
-        elif cell.corruption != "none":
-            from nfex_slam.datasets.corruptions import corrupt
-
-            seq = corrupt(seq, cell.corruption, cell.severity, seed=cell.seed)
+        seq = under(open_sequence(cell.path, cell.format, cell.sequence or None), cell.corruption, cell.severity,
+                    seed=cell.seed, schedule=cell.schedule)
         seq = _SEQUENCES[key] = _CachedSequence(seq)
         if len(_SEQUENCES) > 4:
             _SEQUENCES.popitem(last=False)

@@ -45,3 +45,19 @@ def test_frames_take_their_segments_corruption_and_labels() -> None:
     assert scheduled[5].context["light"] == "bright"
     with pytest.raises(BadInput, match="was made for 6 frames"):
         apply_schedule(seq[:4], sched, 0.7)
+
+
+def test_under_is_the_one_dispatch_of_none_corruption_and_schedule() -> None:
+    """The sweeps, evaluate and the neural training's frames all call ``under``: each condition gives what its
+    own function gives, frame for frame."""
+    from nfex_slam.datasets.schedule import SCHEDULE, under
+
+    seq = make_sequence(6, width=96, height=64)
+    assert under(seq, "none", 0.7, 3) is seq and under(seq, "", 0.7, 3) is seq
+    np.testing.assert_array_equal(under(seq, "dark", 0.7, 3)[2].image, corrupt(seq, "dark", 0.7, seed=3)[2].image)
+    text = "none:0-2,dark:3-5"
+    from_text, from_parsed = under(seq, SCHEDULE, 0.7, 3, text), apply_schedule(seq, Schedule.parse(text, 6), 0.7, seed=3)
+    for i in range(6):
+        np.testing.assert_array_equal(from_text[i].image, from_parsed[i].image)
+    with pytest.raises(BadInput, match="needs a schedule"):
+        under(seq, SCHEDULE, 0.7)

@@ -137,3 +137,22 @@ def apply_schedule(seq: Sequence, schedule: Schedule, severity: float, seed: int
     if not 0.0 <= float(severity) <= 1.0:
         raise BadInput(f"corruption severity must lie in [0, 1], got {severity}")
     return ScheduledSequence(seq, schedule, severity, seed)
+
+
+SCHEDULE = "schedule"  # the condition name of a scheduled sequence (sweep tables, evaluate's conditions)
+
+
+def under(seq: Sequence, condition: str, severity: float, seed: int = 0, schedule: Schedule | str | None = None) -> Sequence:
+    """``seq`` under one condition: ``none`` (itself), a corruption name (``corrupt``), or ``schedule`` with the
+    schedule (text is parsed for ``seq``'s length). The one dispatch the sweeps, ``nfex evaluate`` and the
+    neural training's frames share, so the three see the same images."""
+    if condition == SCHEDULE:
+        if schedule is None:
+            raise BadInput("the condition 'schedule' needs a schedule")
+        parsed = Schedule.parse(schedule, len(seq)) if isinstance(schedule, str) else schedule
+        return apply_schedule(seq, parsed, severity, seed=seed)
+    if condition in ("", "none"):
+        return seq
+    from .corruptions import corrupt
+
+    return corrupt(seq, condition, severity, seed=seed)
