@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Collection, Mapping
+from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -32,10 +32,12 @@ from ..kg.terms import py
 from .observations import Observation, read_observations, restricted
 
 if TYPE_CHECKING:
+    from ..kg.changes import ChangeSet
     from ..kg.store import KnowledgeGraph
 
 log = logging.getLogger("nfex.evidence")
 
+Diff = Callable[[int, int], "ChangeSet"]  # (since, until) → the net change, as KnowledgeGraph.diff
 MAX_SUBJECTS = 2000  # above this a full read is as cheap as finding what changed
 
 MEASURED_CONFIGURATIONS = "SELECT DISTINCT ?cfg WHERE { ?m a nfex:Measurement ; sosa:usedProcedure ?cfg }"
@@ -87,14 +89,15 @@ class ObservationIndex:
         """As cost.measured_settings: the configurations a Measurement used that have settings."""
         return {c: dict(s) for c, s in self.settings.items() if s}
 
-    def advance(self, kg: KnowledgeGraph) -> ObservationIndex:
-        """The index at the head, reading again only what the change since ``version`` can have touched."""
+    def advance(self, kg: KnowledgeGraph, diff: Diff | None = None) -> ObservationIndex:
+        """The index at the head, reading again only what the change since ``version`` can have touched.
+        ``diff``: how to read that change (default ``kg.diff``; a compile shares one between its readers)."""
         t0 = time.perf_counter()
         head = kg.version
         if head == self.version:
             return self
         try:
-            change = kg.diff(self.version, head)
+            change = (diff or kg.diff)(self.version, head)
         except Exception as e:  # a pruned or unreadable history: read everything
             log.info("observation index: no diff from version %d (%s); reading all", self.version, e)
             return ObservationIndex.read(kg)

@@ -41,8 +41,10 @@ import pyoxigraph as ox
 from rdflib.term import Literal, URIRef
 
 from ..kg.backends import EmbeddedBackend
+from ..kg.history import ChangeText
 from ..namespaces import NFEX
 from .aggregate import robust
+from .index import Diff
 from .observations import Observation
 from .trust import Admission
 
@@ -105,15 +107,15 @@ class EvidenceView:
     incremental: bool = False  # made from an earlier view (else from a dump of the stored graph)
 
     def advance(self, kg: KnowledgeGraph, admission: Admission, admitted: Iterable[Observation],
-                extractor_iris: Mapping[str, str], value_iris: Mapping[tuple[str, str], str]) -> EvidenceView:
-        """The view of the head, made from this one (module docstring), or a fresh one where it cannot be."""
-        from ..kg.history import ChangeText
-
+                extractor_iris: Mapping[str, str], value_iris: Mapping[tuple[str, str], str],
+                diff: Diff | None = None) -> EvidenceView:
+        """The view of the head, made from this one (module docstring), or a fresh one where it cannot be.
+        ``diff``: how to read the change (default ``kg.diff``; a compile shares one with the observation index)."""
         head = kg.version
         if self.version < 0:
             return evidence_view(kg, admission, admitted, extractor_iris, value_iris)
         try:
-            change = kg.diff(self.version, head)
+            change = (diff or kg.diff)(self.version, head)
         except Exception as e:  # a pruned or unreadable history
             log.info("evidence view: no diff from version %d (%s); a fresh view", self.version, e)
             return evidence_view(kg, admission, admitted, extractor_iris, value_iris)

@@ -20,6 +20,7 @@ Composition (paper §IV-A): several ``adjust`` statements on one parameter multi
 """
 from __future__ import annotations
 
+import functools
 import itertools
 import logging
 import threading
@@ -201,7 +202,8 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
 
     errors: list[str] = []
     rules = pruning.load_rules(kg)
-    index = previous.index.advance(kg) if previous is not None and previous.index is not None else ObservationIndex.read(kg)
+    diff = functools.cache(kg.diff)  # the observation index and the evidence view read the same change once
+    index = previous.index.advance(kg, diff) if previous is not None and previous.index is not None else ObservationIndex.read(kg)
     observations = index.all()
     admission = admit(observations, TrustPolicy.load(kg))
     evidence = admission.select(observations)
@@ -210,7 +212,7 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     carried = previous.take_view() if previous is not None and rules else None
     made: EvidenceView | None = None
     if rules:
-        made = carried.advance(kg, admission, evidence, extractor_iris, value_iris) if carried is not None \
+        made = carried.advance(kg, admission, evidence, extractor_iris, value_iris, diff) if carried is not None \
             else evidence_view(kg, admission, evidence, extractor_iris, value_iris)
     view = made.backend if made is not None else kg.backend
     pruned_by_rules: dict[int, list[tuple[str, Citation]]] = {}

@@ -63,7 +63,7 @@ def test_an_advanced_view_equals_a_fresh_view_after_random_changes(shipped_kg: K
     assert _triples(advanced) == _triples(fresh), f"quarantined before {len(quarantined)}, after {len(fresh.quarantined)}"
 
 
-def test_a_compile_carries_the_view_and_answers_as_a_full_compile(shipped_kg: KnowledgeGraph) -> None:
+def test_a_compile_carries_the_view_and_answers_as_a_full_compile(shipped_kg: KnowledgeGraph, monkeypatch) -> None:  # type: ignore[no-untyped-def]
     first = compile_table(shipped_kg)
     assert first.view is not None and not first.view.incremental
     writer = ReportWriter(shipped_kg, max_items=1)
@@ -73,7 +73,12 @@ def test_a_compile_carries_the_view_and_answers_as_a_full_compile(shipped_kg: Kn
                                   frames=10, ate_rmse=40.0, extraction_ms=4.0, width=1241, height=376, tracking_lost=9))
     finally:
         writer.close()
+    reads: list[tuple[int, int | None]] = []
+    diff = shipped_kg.diff
+    monkeypatch.setattr(shipped_kg, "diff", lambda since, until=None: reads.append((since, until)) or diff(since, until))
     carried = compile_table(shipped_kg, first)
+    monkeypatch.undo()
+    assert reads == [(first.version, shipped_kg.version)], "the index and the view read the change once between them"
     assert first.view is None, "a view is handed to one compile only"
     assert carried.view is not None and carried.view.incremental
     full = compile_table(shipped_kg)
