@@ -142,35 +142,23 @@ ImageSource = Callable[[Window], "np.ndarray | None"]
 
 
 def default_image_source(data_dir: Path) -> ImageSource:
-    """The first frame of a window, corrupted as in the sweep, via the dataset loaders when present;
-    otherwise KITTI frames are read directly (uncorrupted windows only)."""
+    """The first frame of a window under the sweep's own condition (``nfex_slam.datasets.schedule.under``); where
+    the loader cannot open the sequence, an uncorrupted KITTI frame is read from its file directly, and otherwise
+    the window has no image (it still trains, with the image bit at 0)."""
+    from nfex_slam.datasets import open_sequence
+    from nfex_slam.datasets.schedule import under
+
     cache: dict[tuple[str, ...], Any] = {}
 
-    def loaders() -> tuple[Any, Any] | None:
-        try:
-            from nfex_slam.datasets import open_sequence
-            from nfex_slam.datasets.schedule import under
-        except ImportError:
-            return None
-
-        def condition(seq: Any, w: Window) -> Any:
-            return under(seq, w.corruption, float(w.severity or 1), int(float(w.seed or 0)), w.schedule or None)
-
-        return open_sequence, condition
-
     def source(w: Window) -> np.ndarray | None:
-        fns = loaders()
-        if fns is not None:
-            try:
-                key = (w.dataset, w.sequence, w.corruption, w.schedule, w.severity, w.seed)
-                if key not in cache:
-                    seq = fns[0](data_dir / w.dataset, w.dataset, w.sequence)
-                    if w.corruption not in ("", "none"):
-                        seq = fns[1](seq, w)
-                    cache[key] = seq
-                return prepare_image(cache[key][w.start].image)
-            except Exception as e:  # noqa: BLE001 - a window without its image still trains, with the bit at 0
-                log.debug("no image for %s: %s", w.seq_key, e)
+        key = (w.dataset, w.sequence, w.corruption, w.schedule, w.severity, w.seed)
+        try:
+            if key not in cache:
+                seq = open_sequence(data_dir / w.dataset, w.dataset, w.sequence)
+                cache[key] = under(seq, w.corruption, float(w.severity or 1), int(float(w.seed or 0)), w.schedule or None)
+            return prepare_image(cache[key][w.start].image)
+        except Exception as e:  # noqa: BLE001 - a window without its image still trains
+            log.debug("no image for %s: %s", w.seq_key, e)
         if w.dataset == "kitti" and w.corruption in ("", "none"):
             import cv2
 

@@ -30,7 +30,7 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -84,12 +84,22 @@ def lookup_params(train: Sequence[Window], y: np.ndarray, mask: np.ndarray, val:
     return out
 
 
+class Answer(NamedTuple):
+    """What each predictor answered for one validation window."""
+
+    window: Window
+    net: str
+    lookup: str | None
+    majority: str | None
+    fold: str
+
+
 @dataclass
 class Validation:
     """The pooled predictions of every fold; ``metrics()`` compares them with the baselines."""
 
     inputs: InputVocabulary
-    choices: list[tuple[Window, str, str | None, str | None, str]] = field(default_factory=list)  # w, net, lookup, majority, fold
+    choices: list[Answer] = field(default_factory=list)
     log_p: list[float] = field(default_factory=list)
     params: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)
 
@@ -108,7 +118,7 @@ class Validation:
             look = lookup_selector(train)
             majority = Counter(w.label for w in train if w.label).most_common(1)
             for j, i in enumerate(idx):
-                self.choices.append((val[i], names[int(masked[j].argmax())], look(val[i]), majority[0][0] if majority else None, fold))
+                self.choices.append(Answer(val[i], names[int(masked[j].argmax())], look(val[i]), majority[0][0] if majority else None, fold))
                 self.log_p.append(float(logp[j, V.labels[i]]))
         if V.ymask.sum() > 0:
             pred = pnet.forward(np.concatenate([V.ctx, V.stats], 1))
@@ -132,7 +142,7 @@ class Validation:
                 "val_targets": int(m.sum()),
             }
         if self.choices:
-            ws = [c[0] for c in self.choices]
+            ws = [c.window for c in self.choices]
             labels = [w.label for w in ws]
 
             def acc(xs: Sequence[str | None]) -> float:
@@ -144,10 +154,10 @@ class Validation:
             constants = sorted({x for w in ws for x in w.ate} | {y for y in labels if y})
             by_acc = max(constants, key=lambda x: (acc([x] * len(ws)), -reg([x] * len(ws))))
             by_reg = min(constants, key=lambda x: (reg([x] * len(ws)), -acc([x] * len(ws))))
-            net: list[str | None] = [c[1] for c in self.choices]
-            look = [c[2] for c in self.choices]
-            major = [c[3] for c in self.choices]
-            folds = sorted({c[4] for c in self.choices})
+            net: list[str | None] = [c.net for c in self.choices]
+            look = [c.lookup for c in self.choices]
+            major = [c.majority for c in self.choices]
+            folds = sorted({c.fold for c in self.choices})
             out["selectornet"] = {
                 "val_windows": len(ws),
                 "val_accuracy": acc(net),
@@ -163,7 +173,7 @@ class Validation:
                 "val_regret_majority": reg(major),
                 "val_label_counts": dict(sorted(Counter(y for y in labels if y).items())),
                 "folds": {
-                    f: {"windows": len(sel := [i for i, c in enumerate(self.choices) if c[4] == f]),
+                    f: {"windows": len(sel := [i for i, c in enumerate(self.choices) if c.fold == f]),
                         "accuracy": round(float(np.mean([net[i] == labels[i] for i in sel])), 4),
                         "accuracy_lookup": round(float(np.mean([look[i] == labels[i] for i in sel])), 4),
                         "net_answers": dict(sorted(Counter(net[i] for i in sel).items()))}

@@ -23,3 +23,18 @@ def test_images_of_windows_follow_the_sweeps_corruption(data_dir: Path) -> None:
 
 def test_missing_sequence_gives_no_image(data_dir: Path) -> None:
     assert default_image_source(data_dir)(window("none", sequence="99")) is None
+
+
+def test_a_scheduled_window_gets_its_segments_image(data_dir: Path) -> None:
+    """A schedule window (the sweep's corruption "schedule") shows the corruption of the segment it starts in."""
+    source = default_image_source(data_dir)
+    w = window("schedule")
+    w.schedule = "none:0-99,dark:100-199"
+    early = source(w)
+    w2 = window("schedule")
+    w2.schedule, w2.start = "none:0-99,dark:100-199", 150
+    late, plain = source(w2), source(Window("kitti", "00", "none", "0", "0", 150, 160, {}, {}, 1241 * 376))
+    clean = source(window("none"))
+    assert early is not None and late is not None and plain is not None and clean is not None
+    np.testing.assert_array_equal(early, clean)  # frame 10 lies in the clean segment
+    assert late.mean() < 0.6 * plain.mean()  # frame 150 lies in the dark one
