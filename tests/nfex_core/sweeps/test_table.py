@@ -28,3 +28,17 @@ def test_round_trip_keeps_columns_and_empty_failures(tmp_path: Path) -> None:
     assert "m.density" in back[0] and list(back[0])[-1] == "cell"
     assert back[0]["ate_rmse"] == "0.25" and back[1]["ate_rmse"] == ""
     assert back[0]["best_overall"] == "1" and back[1]["best_overall"] == "0"
+
+
+def test_the_pair_table_of_a_compressed_table_sits_beside_it(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """Shipped tables are gzipped (data/sweeps/dense-*.csv.gz); their pair tables keep the plain table's name."""
+    import gzip
+    from pathlib import Path
+
+    from nfex_core.sweeps.table import pairs_path, read
+
+    assert pairs_path(Path("d/kitti00.csv")) == pairs_path(Path("d/kitti00.csv.gz")) == Path("d/kitti00-pairs.csv.gz")
+    plain = tmp_path / "t.csv"
+    plain.write_text("a,b\n1,2\n")
+    (tmp_path / "t.csv.gz").write_bytes(gzip.compress(plain.read_bytes()))
+    assert read(tmp_path / "t.csv.gz") == read(plain) == [{"a": "1", "b": "2"}]
