@@ -36,12 +36,15 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .evidence import Observation, admitted, read_observations, robust
-from .evidence.index import MEASURED_CONFIGURATIONS, read_settings
+from .evidence.index import read_settings
 from .kg.terms import py
 from .kg.vocab import ExtractorSpec, Value
 
 if TYPE_CHECKING:
     from .kg.store import KnowledgeGraph
+
+MEASURED_CONFIGURATIONS = "SELECT DISTINCT ?cfg WHERE { ?m a nfex:Measurement ; sosa:usedProcedure ?cfg }"
+
 
 def measured_settings(kg: KnowledgeGraph) -> dict[str, dict[str, Value]]:
     """Configuration IRI → {OpenCV name: value} for every configuration a Measurement used (that has settings)."""

@@ -22,7 +22,8 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable, Collection, Mapping
-from dataclasses import dataclass
+from collections import Counter
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from rdflib.term import URIRef
@@ -40,7 +41,6 @@ log = logging.getLogger("nfex.evidence")
 Diff = Callable[[int, int], "ChangeSet"]  # (since, until) → the net change, as KnowledgeGraph.diff
 MAX_SUBJECTS = 2000  # above this a full read is as cheap as finding what changed
 
-MEASURED_CONFIGURATIONS = "SELECT DISTINCT ?cfg WHERE { ?m a nfex:Measurement ; sosa:usedProcedure ?cfg }"
 SETTINGS = """SELECT ?cfg ?name ?v WHERE {
     ?cfg a nfex:Configuration ; nfex:hasSetting ?s . ?s nfex:parameter/nfex:opencvName ?name ; nfex:value ?v .
 }"""
@@ -63,11 +63,12 @@ def read_settings(kg: KnowledgeGraph, configurations: Collection[str]) -> dict[s
 
 @dataclass(frozen=True)
 class ObservationIndex:
-    """Every Measurement (by IRI) and every measured configuration's settings at graph ``version``."""
+    """Every Measurement (by IRI) and the settings of every configuration they used, at graph ``version``."""
 
     version: int
     observations: Mapping[str, Observation]
-    settings: Mapping[str, dict[str, Value]]  # every configuration a Measurement used; {} where it has no settings
+    settings: Mapping[str, dict[str, Value]]  # every configuration an observation used; {} where it has no settings
+    uses: Mapping[str, int] = field(default_factory=dict)  # configuration → observations that used it
     reread: int = -1  # Measurements and configurations read again by the last advance (−1: a full read)
     ms: float = 0.0
 
@@ -77,8 +78,8 @@ class ObservationIndex:
         t0 = time.perf_counter()
         version = kg.version
         observations = read_observations(kg)
-        configurations = [str(r["cfg"]) for r in kg.select(MEASURED_CONFIGURATIONS).rows]
-        return cls(version, {o.iri: o for o in observations}, read_settings(kg, configurations),
+        uses = Counter(o.configuration for o in observations)
+        return cls(version, {o.iri: o for o in observations}, read_settings(kg, uses), dict(uses),
                    ms=(time.perf_counter() - t0) * 1000)
 
     def all(self) -> list[Observation]:
@@ -108,14 +109,20 @@ class ObservationIndex:
         if touched:
             touched |= {str(r["x"]) for r in kg.select(restricted(NEAR, "s", touched)).rows if _nameable(str(r["x"]))}
         observations = dict(self.observations)
+        uses = Counter(self.uses)
         for iri in touched:
-            observations.pop(iri, None)
-        observations.update((o.iri, o) for o in read_observations(kg, touched))
-        configurations = {str(r["cfg"]) for r in kg.select(MEASURED_CONFIGURATIONS).rows}
+            old = observations.pop(iri, None)
+            if old is not None:
+                uses[old.configuration] -= 1
+        for o in read_observations(kg, touched):
+            observations[o.iri] = o
+            uses[o.configuration] += 1
+        configurations = {c for c, n in uses.items() if n > 0}
         stale = (configurations - set(self.settings)) | (configurations & touched)
-        settings = {c: self.settings[c] for c in configurations if c not in stale}
+        settings = {c: s for c, s in self.settings.items() if c in configurations and c not in stale}
         settings.update(read_settings(kg, stale))
-        return ObservationIndex(head, observations, settings, len(touched), (time.perf_counter() - t0) * 1000)
+        return ObservationIndex(head, observations, settings, {c: uses[c] for c in configurations}, len(touched),
+                                (time.perf_counter() - t0) * 1000)
 
 
 def _nameable(iri: str) -> bool:

@@ -91,9 +91,15 @@ def read_observations(kg: KnowledgeGraph, only: Collection[str] | None = None) -
 
 
 def restricted(query: str, variable: str, iris: Collection[str]) -> str:
-    """``query`` (a SELECT with one top-level ``WHERE {``) with ``?variable`` bound to ``iris`` (a VALUES block)."""
-    values = " ".join(f"<{i}>" for i in sorted(iris))
+    """``query`` (a SELECT with one top-level ``WHERE {``) with ``?variable`` bound to ``iris``: a VALUES block
+    opens the WHERE and every ``OPTIONAL {`` group.
+
+    The repetition changes no answer (the outer block already binds ``?variable`` to these IRIs, so an
+    optional row with another value could never join), but it changes the plan: Oxigraph evaluates an
+    OPTIONAL's group on its own and then joins, so without it reading one Measurement scans every
+    Measurement's ATE, conditions, … (about 250 ms on 300k statements, 2 ms with it)."""
+    values = f"VALUES ?{variable} {{ {' '.join(f'<{i}>' for i in sorted(iris))} }} "
     head, sep, rest = query.partition("WHERE {")
     if not sep:
         raise ValueError("the query has no WHERE {")
-    return f"{head}WHERE {{ VALUES ?{variable} {{ {values} }}{rest}"
+    return f"{head}WHERE {{ {values}{rest.replace('OPTIONAL {', 'OPTIONAL { ' + values)}"
