@@ -33,6 +33,7 @@ from __future__ import annotations
 import hashlib
 import io
 import logging
+from collections import Counter
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -42,6 +43,7 @@ from rdflib.term import Literal, URIRef
 
 from ..kg.backends import EmbeddedBackend
 from ..kg.history import ChangeText
+from ..kg.terms import py
 from ..namespaces import NFEX
 from .aggregate import robust
 from .index import Diff
@@ -49,6 +51,7 @@ from .observations import Observation
 from .trust import Admission
 
 if TYPE_CHECKING:
+    from ..kg.changes import ChangeSet
     from ..kg.store import KnowledgeGraph
 
 _XSD = "http://www.w3.org/2001/XMLSchema#"
@@ -105,6 +108,7 @@ class EvidenceView:
     quarantined: frozenset[str]
     summary: frozenset[str]
     incremental: bool = False  # made from an earlier view (else from a dump of the stored graph)
+    touched: frozenset[tuple[str, str]] | None = None  # the (predicate, object) of every triple the advance added or removed; None: unknown
 
     def advance(self, kg: KnowledgeGraph, admission: Admission, admitted: Iterable[Observation],
                 extractor_iris: Mapping[str, str], value_iris: Mapping[tuple[str, str], str],
@@ -138,7 +142,31 @@ class EvidenceView:
             kg.backend.query_to(f"CONSTRUCT {{ ?m ?p ?o }} WHERE {{ VALUES ?m {{ {values} }} ?m ?p ?o }}", "application/n-triples", dump)
             store.load(dump.getvalue(), format=ox.RdfFormat.N_TRIPLES)
         _insert_data(store, sorted(summary - self.summary))
-        return EvidenceView(_settled(kg, head), self.backend, quarantined, summary, incremental=True)
+        touched = _touched(kg, change, self.quarantined, quarantined, self.summary ^ summary)
+        return EvidenceView(_settled(kg, head), self.backend, quarantined, summary, incremental=True, touched=touched)
+
+
+def _touched(kg: KnowledgeGraph, change: ChangeSet, before: frozenset[str], after: frozenset[str],
+             summary: Iterable[str]) -> frozenset[tuple[str, str]] | None:
+    """The (predicate, object) pairs of the triples by which the view changed, for rules/pruning.py ``reads``;
+    None where they are not known here: a Measurement left quarantine, or one that had triples before the
+    change entered it (its stored triples come or go whole). A triple of a Measurement quarantined on both
+    sides of the change never was in the view, nor was one added for a Measurement quarantined on arrival."""
+    arrived = after - before
+    if before - after:
+        return None
+    if arrived:
+        added = Counter(str(t[0]) for t in change.added if str(t[0]) in arrived)
+        values = " ".join(f"<{m}>" for m in sorted(arrived))
+        rows = kg.backend.select(f"SELECT ?m (COUNT(*) AS ?n) WHERE {{ VALUES ?m {{ {values} }} ?m ?p ?o }} GROUP BY ?m").rows
+        if any(int(py(r["n"])) != added[str(r["m"])] for r in rows):
+            return None  # it had triples before the change: they left the view
+    out = {(str(p), str(o)) for s, p, o in change.added if str(s) not in after}
+    out |= {(str(p), str(o)) for s, p, o in change.removed if str(s) not in before}
+    for line in summary:
+        _, p, o = line.split(" ", 2)
+        out.add((p[1:-1], o[1:-3] if o.startswith("<") else o))
+    return frozenset(out)
 
 
 def _delete_data(store: ox.Store, lines: Sequence[str]) -> None:

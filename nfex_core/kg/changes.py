@@ -11,9 +11,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import rdflib
-from rdflib.term import Node
+from rdflib.namespace import PROV, RDF
+from rdflib.term import Node, URIRef
 
 from ..errors import BadInput, ParseError
+from ..namespaces import NFEX
 from .backends import Backend
 from .terms import Triple, n3, normalise, skolemise
 
@@ -90,6 +92,42 @@ def present(backend: Backend, triples: Iterable[Triple]) -> set[Triple]:
         res = backend.select(f"SELECT ?s ?p ?o WHERE {{ VALUES (?s ?p ?o) {{ {values} }} ?s ?p ?o }}")
         found.update((r["s"], r["p"], r["o"]) for r in res.rows)
     return found
+
+
+# What a sweep or a client's report writes (sweeps/records.py, feedback.py): the Measurement and the nodes
+# around it. Nothing that configures selection — the vocabulary, statements, shapes, rules, settings — has
+# one of these types, and none of its readers reads a node of one (see ``evidence_only``).
+EVIDENCE_CLASSES = frozenset({
+    NFEX.Measurement, NFEX.MetricResult, NFEX.Configuration, NFEX.ParameterSetting, NFEX.Run, NFEX.Machine,
+    NFEX.Sequence, NFEX.Dataset, NFEX.Corruption, NFEX.Reporter, PROV.Agent,
+})
+
+
+def evidence_only(backend: Backend, change: ChangeSet) -> bool:
+    """Whether ``change`` touches evidence and nothing else: every subject it adds or removes a triple of is
+    an IRI typed, before or after the change, with ``EVIDENCE_CLASSES`` only (an untyped subject is not).
+
+    ``backend`` holds the graph *after* the change: a subject's types before it are those after, less the
+    type triples the change added, plus those it removed — so the types read here (after, and every type
+    triple of the change) include both. What a compile derives from the graph's configuration alone
+    (rules/setup.py) is then the same on both sides of the change, since its readers only read nodes of
+    configuration classes and the nodes they link to, which a report never writes
+    (tests/nfex_core/rules/test_setup.py compares with a full compile after random changes)."""
+    subjects = change.subjects()
+    if not subjects:
+        return True
+    if any(not isinstance(s, URIRef) for s in subjects):
+        return False
+    types: dict[Node, set[Node]] = {s: set() for s in subjects}
+    for s, p, o in change.added | change.removed:
+        if p == RDF.type:
+            types[s].add(o)
+    items = sorted(subjects, key=str)
+    for i in range(0, len(items), 500):
+        values = " ".join(n3(x) for x in items[i : i + 500])
+        for r in backend.select(f"SELECT ?s ?t WHERE {{ VALUES ?s {{ {values} }} ?s {n3(RDF.type)} ?t }}").rows:
+            types[r["s"]].add(r["t"])
+    return all(t and t <= EVIDENCE_CLASSES for t in types.values())
 
 
 def graph_triples(graph: rdflib.Graph) -> frozenset[Triple]:

@@ -27,7 +27,7 @@ from ..config import Settings
 from ..errors import BadInput, Conflict, NotFound, PreconditionFailed, StoreUnavailable, ValidationFailed
 from ..namespaces import NFEX, PREFIXES
 from .backends import Backend, SelectResult, open_backend
-from .changes import ChangeSet, graph_triples, present
+from .changes import ChangeSet, evidence_only, graph_triples, present
 from .claims import META as CLAIMS_META
 from .claims import Rival, ttl_for
 from .claims import release as release_claim
@@ -182,6 +182,18 @@ class KnowledgeGraph:
             if hit is not None and hit[0] == head and not touches_shapes(change, hit[1]):
                 self._cache["shapes"] = (head + 1, hit[1])
 
+    def _carry_vocabulary(self, change: ChangeSet, head: int) -> None:
+        """The vocabulary of ``head`` is that of ``head + 1`` when ``change`` (just committed) touches evidence
+        only (changes.evidence_only: a report's Measurement, run, configuration, …): spares each report batch,
+        and the compile after it, a reload (~15 ms)."""
+        with self._cache_lock:
+            hit = self._cache.get("vocabulary")
+        if hit is None or hit[0] != head or not evidence_only(self.backend, change):
+            return
+        with self._cache_lock:
+            if self._cache.get("vocabulary") is hit:
+                self._cache["vocabulary"] = (head + 1, hit[1])
+
     def vocabulary(self) -> Vocabulary:
         return self.cached("vocabulary", lambda: Vocabulary.load(self))
 
@@ -271,6 +283,7 @@ class KnowledgeGraph:
                 outcome = self._try_commit(effective, head, author, message)
                 if outcome is None:
                     self._carry_shapes(effective, head)
+                    self._carry_vocabulary(effective, head)
                     for listener in self._listeners:
                         listener(head + 1)
                     return CommitResult(

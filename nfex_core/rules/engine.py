@@ -21,7 +21,6 @@ Composition (paper §IV-A): several ``adjust`` statements on one parameter multi
 from __future__ import annotations
 
 import functools
-import itertools
 import logging
 import threading
 import time
@@ -34,26 +33,20 @@ from rdflib.term import URIRef
 
 from ..cost import BudgetTerms, CostModel, fit_cost_model
 from ..errors import NfexError
-from ..evidence import Admission, Observation, TrustPolicy, admit, robust
-from ..evidence.index import ObservationIndex
+from ..evidence import Admission, Observation, admit, robust
+from ..evidence.index import Diff, ObservationIndex
 from ..evidence.view import EvidenceView, evidence_view
-from ..kg.terms import py
+from ..kg.changes import evidence_only
 from ..kg.vocab import ExtractorSpec, Value
-from ..motion import load_step_checks
 from . import pruning
-from .shapes import load_context_shapes
-from .statements import CompiledStatement, load_statements
+from .setup import Setup
+from .statements import CompiledStatement
 from .types import (
-    DEFAULT_ESCALATIONS,
-    AcceptRule,
     Citation,
     ContextKey,
     Decision,
     Evidence,
-    Factor,
     MeasuredConfiguration,
-    PairTest,
-    Policy,
 )
 
 if TYPE_CHECKING:
@@ -61,11 +54,6 @@ if TYPE_CHECKING:
 
 log = logging.getLogger("nfex.rules")
 _TAKE = threading.Lock()  # RuleTable.take_view
-
-
-
-def _citation(s: CompiledStatement) -> Citation:
-    return Citation(str(s.iri), s.label, s.reason, s.kind, s.source)
 
 
 @dataclass
@@ -88,6 +76,10 @@ class RuleTable:
     step_checks: dict[str, StepChecks] = field(default_factory=dict)  # agent → front-end checks (motion.py)
     index: ObservationIndex | None = field(default=None, repr=False)  # the observations read, for the next compile
     view: EvidenceView | None = field(default=None, repr=False, compare=False)  # the rules' view, for the next compile
+    setup: Setup | None = field(default=None, repr=False, compare=False)  # the configuration stage, for the next compile
+    hits: tuple[dict[int, list[tuple[str, Citation]]] | None, ...] = field(default=(), repr=False, compare=False)  # per rule; None: it failed
+    ruled: dict[int, tuple[tuple[str, Citation], ...]] = field(default_factory=dict, repr=False, compare=False)  # rule prunes per context
+    plain: dict[ContextKey, Decision] = field(default_factory=dict, repr=False, compare=False)  # decisions before evidence (``decide``)
     _measured: dict[ContextKey, dict[str, tuple[MeasuredConfiguration, ...]]] = field(default_factory=dict, repr=False)
     _evidenced: set[ContextKey] = field(default_factory=set, repr=False)
 
@@ -179,121 +171,94 @@ def _configurations(
     return out
 
 
-def _measured_rule_enabled(kg: KnowledgeGraph) -> bool:
-    rows = kg.select("SELECT ?e WHERE { nfex:rule_measured_configuration nfex:enabled ?e }").rows
-    return not any(py(r["e"]) is False for r in rows)
-
-
-def _min_measurements(kg: KnowledgeGraph) -> int:
-    rows = kg.select("SELECT ?n WHERE { nfex:minMeasurements nfex:value ?n }").rows
-    return int(py(rows[0]["n"])) if rows else 3
-
-
 def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> RuleTable:
     """Evaluate every rule and statement for every context of the graph's condition space. ``previous``: the
-    table of an earlier version, whose observations are carried forward (evidence/index.py: only what the
-    change since then can have touched is read again)."""
+    table of an earlier version, from which what the change since then cannot have touched is carried: its
+    observations (evidence/index.py), its rules' view (evidence/view.py), its configuration stage
+    (setup.py) when the change is evidence only, and each context's decision whose rule prunes are unchanged."""
     t0 = time.perf_counter()
     version = kg.version
-    vocab = kg.vocabulary()
-    dims = tuple(vocab.dimensions)
-    keys: list[ContextKey] = list(itertools.product(*[[*vocab.dimensions[d].values, None] for d in dims]))
-    iris = [[vocab.dimensions[d].values[v].iri if v is not None else None for d, v in zip(dims, key, strict=True)] for key in keys]
-
-    errors: list[str] = []
-    rules = pruning.load_rules(kg)
-    diff = functools.cache(kg.diff)  # the observation index and the evidence view read the same change once
+    diff = functools.cache(kg.diff)  # the stages below read the same change once
+    absent = backend_citations(kg, kg.vocabulary().extractors)
+    setup = _carried_setup(kg, previous, version, diff, absent) or Setup.read(kg, absent)
+    vocab, dims = setup.vocab, setup.dimensions
     index = previous.index.advance(kg, diff) if previous is not None and previous.index is not None else ObservationIndex.read(kg)
     observations = index.all()
-    admission = admit(observations, TrustPolicy.load(kg))
+    admission = admit(observations, setup.policy)
     evidence = admission.select(observations)
     value_iris = {(d, v): str(spec.iri) for d in dims for v, spec in vocab.dimensions[d].values.items()}
     extractor_iris = {x: str(e.iri) for x, e in vocab.extractors.items()}
-    carried = previous.take_view() if previous is not None and rules else None
+    carried = previous.take_view() if previous is not None and setup.rules else None
     made: EvidenceView | None = None
-    if rules:
+    if setup.rules:
         made = carried.advance(kg, admission, evidence, extractor_iris, value_iris, diff) if carried is not None \
             else evidence_view(kg, admission, evidence, extractor_iris, value_iris)
     view = made.backend if made is not None else kg.backend
-    pruned_by_rules: dict[int, list[tuple[str, Citation]]] = {}
-    for rule in rules:
-        try:
-            hits = pruning.evaluate(view, rule, dims, iris)
-        except Exception as e:  # a broken rule must not take selection down; it is reported
-            errors.append(f"{rule.iri}: {e}")
-            log.warning("pruning rule %s failed: %s", rule.iri, e)
-            continue
-        for i, found in hits.items():
-            for x, reason in found:
-                spec = vocab.by_iri.get(URIRef(x))
-                if isinstance(spec, ExtractorSpec):
-                    pruned_by_rules.setdefault(i, []).append((spec.name, Citation(str(rule.iri), rule.label, reason, "sparql", rule.source)))
-
-    statements = load_statements(kg, vocab)
-    shapes, shape_errors = load_context_shapes(kg, vocab, statements)
-    errors += shape_errors
-    absent = backend_citations(kg, vocab.extractors)
-    decisions: dict[ContextKey, Decision] = {}
-    for i, key in enumerate(keys):
-        context = dict(zip(dims, key, strict=True))
-        pruned: dict[str, list[Citation]] = {x: [cite] for x, cite in absent.items()}
-        for name, cite in pruned_by_rules.get(i, []):
-            pruned.setdefault(name, []).append(cite)
-        factors: dict[str, dict[str, Factor]] = {}
-        weights: dict[str, Factor] = {m: Factor(1.0) for m in vocab.metrics}
-        bonuses: dict[str, Factor] = {}
-        accept: list[AcceptRule] = []
-        escalation: tuple[int, Citation] | None = None
-        for s in statements:
-            if not s.applies(context):
+    errors: list[str] = []
+    ruled: dict[int, list[tuple[str, Citation]]] = {}
+    same = previous is not None and previous.setup is setup
+    touched = made.touched if made is not None else None
+    hits: list[dict[int, list[tuple[str, Citation]]] | None] = []
+    for k, (rule, query) in enumerate(zip(setup.rules, setup.queries, strict=True)):
+        kept = previous.hits[k] if same and previous is not None and k < len(previous.hits) else None
+        if kept is None or pruning.reads(setup.footprints[k], touched):
+            kept = None
+            try:
+                if isinstance(query, Exception):
+                    raise query
+                found = pruning.evaluate(view, rule, query)
+            except Exception as e:  # a broken rule must not take selection down; it is reported
+                errors.append(f"{rule.iri}: {e}")
+                log.warning("pruning rule %s failed: %s", rule.iri, e)
+                hits.append(None)
                 continue
-            cite = _citation(s)
-            if s.kind == "prune" and s.extractor:
-                pruned.setdefault(s.extractor, []).append(cite)
-            elif s.kind == "adjust" and s.extractor and s.parameter and s.value is not None:
-                old = factors.setdefault(s.extractor, {}).get(s.parameter, Factor(1.0))
-                factors[s.extractor][s.parameter] = Factor(old.value * float(s.value), old.citations + (cite,))
-            elif s.kind == "weight" and s.metric and s.value is not None:
-                old = weights[s.metric]
-                weights[s.metric] = Factor(old.value * float(s.value), old.citations + (cite,))
-            elif s.kind == "prefer" and s.extractor and s.value is not None:
-                old = bonuses.get(s.extractor, Factor(0.0))
-                bonuses[s.extractor] = Factor(old.value + float(s.value), old.citations + (cite,))
-            elif s.kind == "accept" and s.tests:
-                accept.append(AcceptRule(tuple(PairTest(*t) for t in s.tests), s.atoms, cite))
-            elif s.kind == "escalate" and s.value is not None and (escalation is None or int(s.value) < escalation[0]):
-                escalation = (int(s.value), cite)  # the strictest in force
-        in_force = tuple(sh for sh in shapes if sh.applies(context))
-        for sh in in_force:  # a prohibition prunes here; bounds are checked per candidate Θ′
-            if sh.bound is None:
-                for name in vocab.extractors:
-                    if sh.concerns(name):
-                        pruned.setdefault(name, []).append(sh.citation)
-        decisions[key] = Decision(
-            context=context,
-            candidates=tuple(x for x in vocab.extractors if x not in pruned),
-            pruned={x: tuple(c) for x, c in pruned.items()},
-            factors=factors,
-            weights=weights,
-            bonuses=bonuses,
-            shapes=in_force,
-            verification=Policy(tuple(accept), *(escalation or (DEFAULT_ESCALATIONS, None))),
-        )
+            kept = {}
+            for i, found_here in found.items():
+                for x, reason in found_here:
+                    spec = vocab.by_iri.get(URIRef(x))
+                    if isinstance(spec, ExtractorSpec):
+                        kept.setdefault(i, []).append((spec.name, Citation(str(rule.iri), rule.label, reason, "sparql", rule.source)))
+        hits.append(kept)
+        for i, pairs in kept.items():
+            ruled.setdefault(i, []).extend(pairs)
+    errors += setup.errors
+    plain: dict[ContextKey, Decision] = {}
+    rebuilt = 0
+    for i, key in enumerate(setup.keys):
+        mine = tuple(ruled.get(i, ()))
+        if same and previous is not None and previous.ruled.get(i, ()) == mine:
+            plain[key] = previous.plain[key]
+        else:
+            plain[key] = setup.decision(i, mine)
+            rebuilt += 1
     settings = index.measured_settings()
     cost = fit_cost_model(kg, vocab.extractors, settings, evidence)
-    budget_terms = BudgetTerms.load(kg)
-    step_checks = load_step_checks(kg)
-    configurations = _configurations(evidence, settings, vocab.extractors) if _measured_rule_enabled(kg) else {}
+    configurations = _configurations(evidence, settings, vocab.extractors) if setup.measured_rule else {}
     observed: dict[str, dict[frozenset[tuple[str, str]], list[Observation]]] = {}
     for o in evidence:
         observed.setdefault(o.extractor, {}).setdefault(o.conditions, []).append(o)
-    least = _min_measurements(kg)
     ms = (time.perf_counter() - t0) * 1000
-    log.info("compiled %d contexts, %d rules, %d statements at graph version %d in %.0f ms (observations: %s in %.0f ms)",
-             len(keys), len(rules), len(statements), version, ms,
-             "read in full" if index.reread < 0 else f"{index.reread} re-read", index.ms)
-    return RuleTable(version, dims, decisions, rules, statements, errors, ms, cost, budget_terms,
-                     configurations, least, observed, admission, step_checks=step_checks, index=index, view=made)
+    log.info("compiled %d contexts (%d rebuilt, configuration %s), %d rules, %d statements at graph version %d in %.0f ms "
+             "(observations: %s in %.0f ms)", len(setup.keys), rebuilt, "carried" if same else "read", len(setup.rules),
+             len(setup.statements), version, ms, "read in full" if index.reread < 0 else f"{index.reread} re-read", index.ms)
+    return RuleTable(version, dims, dict(plain), list(setup.rules), list(setup.statements), errors, ms, cost, setup.budget_terms,
+                     configurations, setup.min_measurements, observed, admission, step_checks=dict(setup.step_checks),
+                     index=index, view=made, setup=setup, hits=tuple(hits), ruled={i: tuple(r) for i, r in ruled.items()}, plain=plain)
+
+
+def _carried_setup(kg: KnowledgeGraph, previous: RuleTable | None, version: int, diff: Diff,
+                   absent: Mapping[str, Citation]) -> Setup | None:
+    """``previous``'s configuration stage, where the change from its version to ``version`` is evidence only
+    (kg.changes.evidence_only) and the same backends are missing; else None (read it again)."""
+    if previous is None or previous.setup is None or dict(previous.setup.absent) != dict(absent):
+        return None
+    try:
+        change = diff(previous.version, version)
+    except Exception:  # a pruned or unreadable history
+        return None
+    if not evidence_only(kg.backend, change) or kg.version != version:  # a commit since: its types may differ
+        return None
+    return previous.setup
 
 
 BACKEND_RULE = "https://w3id.org/nfex#rule_backend_available"

@@ -1,0 +1,163 @@
+"""The configuration stage of a compile: what the rule table reads from the graph's configuration, and the
+part of every context's decision that follows from it alone.
+
+A compile (engine.py) has two inputs. The graph's *configuration* is the vocabulary, the DSL statements, the
+context shapes, the SPARQL rules' text, the budget terms, the front-end checks, the trust policy and the
+settings of the measured rule. Its *evidence* is the Measurements with their runs, configurations and
+sequences. A ``Setup`` is everything the first determines, per context E:
+
+    pruned(E)  = the extractors whose backend is missing, those a ``prune`` statement or a prohibiting
+                 context shape names — each with its citations;
+    f_kj(E), h_x(E), bonuses(E), shapes in force, the verification policy — as engine.py composes them.
+
+The SPARQL rules read evidence (evidence/view.py), so their prunes are laid over this per version
+(``Setup.decision``); everything else is carried. A feedback report changes evidence only, so a compile
+keeps the last version's Setup when the change since then touches evidence nodes only
+(``kg.changes.evidence_only``) and reads it again otherwise.
+"""
+from __future__ import annotations
+
+import itertools
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from nfex_slam.motion import StepChecks
+
+from ..cost import BudgetTerms
+from ..evidence import TrustPolicy
+from ..kg.terms import py
+from ..kg.vocab import Vocabulary
+from ..motion import load_step_checks
+from . import pruning
+from .shapes import load_context_shapes
+from .statements import CompiledStatement, load_statements
+from .types import (
+    DEFAULT_ESCALATIONS,
+    AcceptRule,
+    Citation,
+    CompiledShape,
+    ContextKey,
+    Decision,
+    Factor,
+    PairTest,
+    Policy,
+)
+
+if TYPE_CHECKING:
+    from ..kg.store import KnowledgeGraph
+
+
+def _citation(s: CompiledStatement) -> Citation:
+    return Citation(str(s.iri), s.label, s.reason, s.kind, s.source)
+
+
+@dataclass(frozen=True)
+class Setup:
+    """The configuration of graph ``version`` as a compile reads it, and each context's decision before the
+    SPARQL rules (``base``, in the order of ``keys``)."""
+
+    version: int
+    vocab: Vocabulary
+    dimensions: tuple[str, ...]
+    keys: tuple[ContextKey, ...]  # every context: each dimension's value or None (unknown)
+    rules: tuple[pruning.SparqlRule, ...]
+    queries: tuple[str | Exception, ...]  # each rule contextualised for every context (pruning.contextualise), or why it cannot be
+    footprints: tuple[pruning.Footprint | None, ...]  # what each rule reads (pruning.footprint)
+    statements: tuple[CompiledStatement, ...]
+    shapes: tuple[CompiledShape, ...]
+    errors: tuple[str, ...]  # malformed shapes and requires (the rules' errors come with their evaluation)
+    absent: Mapping[str, Citation]  # extractors whose backend cannot run here (engine.backend_citations)
+    budget_terms: BudgetTerms
+    step_checks: Mapping[str, StepChecks]
+    policy: TrustPolicy
+    min_measurements: int
+    measured_rule: bool  # nfex:rule_measured_configuration is enabled
+    base: tuple[Decision, ...]  # ``pruned`` holds the statements' and shapes' prunes only
+
+    @classmethod
+    def read(cls, kg: KnowledgeGraph, absent: Mapping[str, Citation]) -> Setup:
+        version = kg.version
+        vocab = kg.vocabulary()
+        dims = tuple(vocab.dimensions)
+        keys = tuple(itertools.product(*[[*vocab.dimensions[d].values, None] for d in dims]))
+        iris = [[vocab.dimensions[d].values[v].iri if v is not None else None for d, v in zip(dims, key, strict=True)] for key in keys]
+        rules = tuple(pruning.load_rules(kg))
+        queries: list[str | Exception] = []
+        for rule in rules:
+            try:
+                queries.append(pruning.contextualise(rule.query, dims, iris))
+            except Exception as e:  # a broken rule must not take selection down; each compile reports it
+                queries.append(e)
+        statements = load_statements(kg, vocab)
+        shapes, shape_errors = load_context_shapes(kg, vocab, statements)
+        base = tuple(_base(dict(zip(dims, key, strict=True)), vocab, statements, shapes) for key in keys)
+        return cls(version, vocab, dims, keys, rules, tuple(queries), tuple(pruning.footprint(r.query) for r in rules), tuple(statements), tuple(shapes),
+                   tuple(shape_errors), dict(absent), BudgetTerms.load(kg), load_step_checks(kg),
+                   TrustPolicy.load(kg), _min_measurements(kg), _measured_rule_enabled(kg), base)
+
+    def decision(self, i: int, ruled: Sequence[tuple[str, Citation]]) -> Decision:
+        """Context ``keys[i]``'s decision with the SPARQL rules' prunes ``ruled`` (extractor, citation) laid over
+        its base; citations in the order: missing backend, rules, statements, shapes."""
+        base = self.base[i]
+        pruned: dict[str, list[Citation]] = {x: [cite] for x, cite in self.absent.items()}
+        for name, cite in ruled:
+            pruned.setdefault(name, []).append(cite)
+        for name, cites in base.pruned.items():
+            pruned.setdefault(name, []).extend(cites)
+        return Decision(
+            context=base.context,
+            candidates=tuple(x for x in self.vocab.extractors if x not in pruned),
+            pruned={x: tuple(c) for x, c in pruned.items()},
+            factors=base.factors, weights=base.weights, bonuses=base.bonuses, shapes=base.shapes,
+            verification=base.verification,
+        )
+
+
+def _base(context: dict[str, str | None], vocab: Vocabulary, statements: Sequence[CompiledStatement],
+          shapes: Sequence[CompiledShape]) -> Decision:
+    """A context's decision from the statements and shapes in force there (paper §IV-A; engine.py composes)."""
+    pruned: dict[str, list[Citation]] = {}
+    factors: dict[str, dict[str, Factor]] = {}
+    weights: dict[str, Factor] = {m: Factor(1.0) for m in vocab.metrics}
+    bonuses: dict[str, Factor] = {}
+    accept: list[AcceptRule] = []
+    escalation: tuple[int, Citation] | None = None
+    for s in statements:
+        if not s.applies(context):
+            continue
+        cite = _citation(s)
+        if s.kind == "prune" and s.extractor:
+            pruned.setdefault(s.extractor, []).append(cite)
+        elif s.kind == "adjust" and s.extractor and s.parameter and s.value is not None:
+            old = factors.setdefault(s.extractor, {}).get(s.parameter, Factor(1.0))
+            factors[s.extractor][s.parameter] = Factor(old.value * float(s.value), old.citations + (cite,))
+        elif s.kind == "weight" and s.metric and s.value is not None:
+            old = weights[s.metric]
+            weights[s.metric] = Factor(old.value * float(s.value), old.citations + (cite,))
+        elif s.kind == "prefer" and s.extractor and s.value is not None:
+            old = bonuses.get(s.extractor, Factor(0.0))
+            bonuses[s.extractor] = Factor(old.value + float(s.value), old.citations + (cite,))
+        elif s.kind == "accept" and s.tests:
+            accept.append(AcceptRule(tuple(PairTest(*t) for t in s.tests), s.atoms, cite))
+        elif s.kind == "escalate" and s.value is not None and (escalation is None or int(s.value) < escalation[0]):
+            escalation = (int(s.value), cite)  # the strictest in force
+    in_force = tuple(sh for sh in shapes if sh.applies(context))
+    for sh in in_force:  # a prohibition prunes here; bounds are checked per candidate Θ′
+        if sh.bound is None:
+            for name in vocab.extractors:
+                if sh.concerns(name):
+                    pruned.setdefault(name, []).append(sh.citation)
+    return Decision(context=context, candidates=(), pruned={x: tuple(c) for x, c in pruned.items()}, factors=factors,
+                    weights=weights, bonuses=bonuses, shapes=in_force,
+                    verification=Policy(tuple(accept), *(escalation or (DEFAULT_ESCALATIONS, None))))
+
+
+def _measured_rule_enabled(kg: KnowledgeGraph) -> bool:
+    rows = kg.select("SELECT ?e WHERE { nfex:rule_measured_configuration nfex:enabled ?e }").rows
+    return not any(py(r["e"]) is False for r in rows)
+
+
+def _min_measurements(kg: KnowledgeGraph) -> int:
+    rows = kg.select("SELECT ?n WHERE { nfex:minMeasurements nfex:value ?n }").rows
+    return int(py(rows[0]["n"])) if rows else 3

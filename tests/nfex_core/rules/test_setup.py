@@ -1,0 +1,163 @@
+"""A compile carried from the last version (rules/setup.py, the rules' footprints) equals a full compile.
+
+Random changes on the shipped graph mix evidence (reports, ATEs, deleted Measurements — test_index.py's
+operations) with configuration (a statement dropped, a rule disabled, a threshold or the trust setting
+changed). After each batch, the table compiled from the previous one equals a full compile; a change of
+evidence only keeps the configuration stage, and one of configuration reads it again."""
+from __future__ import annotations
+
+import random
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from nfex_core.feedback import Feedback, ReportWriter
+from nfex_core.kg import KnowledgeGraph
+from nfex_core.kg.changes import ChangeSet, evidence_only
+from nfex_core.namespaces import NFEX, RDF
+from nfex_core.rules import pruning
+from nfex_core.rules.engine import RuleTable, compile_table
+
+from ..evidence.test_index import OPS, PREFIXES, _apply
+from ..evidence.test_view import _trust
+
+CONFIGURATION = ("statement", "rule", "threshold", "trust")
+CONTEXTS = [{"agent": "car", "light": "dark"}, {"agent": "drone"}, {"agent": "human", "scene": "indoor", "light": "dark"}, {}]
+
+
+def _configure(kg: KnowledgeGraph, op: str, rng: random.Random) -> None:
+    if op == "trust":
+        _trust(kg, rng)
+    elif op == "statement":
+        rows = kg.select("SELECT ?s WHERE { ?s nfex:inProgram ?p }").rows
+        if rows:
+            kg.update(PREFIXES + f"DELETE WHERE {{ <{rng.choice(rows)['s']}> ?p ?o }}", author="pytest")
+    elif op == "rule":
+        rows = kg.select("SELECT ?r WHERE { ?r a nfex:SparqlRule }").rows
+        kg.update(PREFIXES + f"INSERT DATA {{ <{rng.choice(rows)['r']}> nfex:enabled false }}", author="pytest")
+    elif op == "threshold":
+        kg.update(PREFIXES + f"DELETE {{ nfex:maxRelativeAte nfex:value ?v }} INSERT {{ nfex:maxRelativeAte nfex:value {rng.choice([1.2, 2.0, 5.0])} }} "
+                  "WHERE { OPTIONAL { nfex:maxRelativeAte nfex:value ?v } }", author="pytest")
+
+
+def _same(carried: RuleTable, full: RuleTable) -> None:
+    assert carried.plain == full.plain and carried.errors == full.errors  # (``decisions`` gain evidence as contexts are asked)
+    assert carried.configurations == full.configurations and carried.observed == full.observed
+    assert carried.cost == full.cost and carried.admission == full.admission and carried.budget_terms == full.budget_terms
+    for c in CONTEXTS:
+        assert carried.decide(c) == full.decide(c)
+        assert carried.measured(c) == full.measured(c)
+
+
+@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(ops=st.lists(st.sampled_from((*OPS, *CONFIGURATION)), min_size=1, max_size=4), seed=st.integers(0, 2**32 - 1))
+def test_a_carried_compile_equals_a_full_compile_after_random_changes(shipped_kg: KnowledgeGraph, ops: list[str], seed: int) -> None:
+    rng = random.Random(seed)
+    table = shipped_kg.cached("test-setup", lambda: compile_table(shipped_kg))
+    writer = ReportWriter(shipped_kg, max_items=1)
+    try:
+        for op in ops:
+            before = shipped_kg.version
+            _configure(shipped_kg, op, rng) if op in CONFIGURATION else _apply(shipped_kg, op, rng, writer)
+            if shipped_kg.version == before:
+                continue
+            table = carried = compile_table(shipped_kg, table)
+            full = compile_table(shipped_kg)
+            _same(carried, full)
+    finally:
+        writer.close()
+
+
+def _report(writer: ReportWriter, reporter: str, extractor: str = "ORB") -> None:
+    writer.write(Feedback(extractor, {}, {"agent": "car", "light": "dark"}, sequence="s9", dataset="pytest", reporter=reporter,
+                          frames=10, ate_rmse=40.0, extraction_ms=4.0, width=1241, height=376, tracking_lost=9))
+
+
+def test_a_report_keeps_the_configuration_stage_and_a_statement_change_reads_it_again(shipped_kg: KnowledgeGraph) -> None:
+    first = compile_table(shipped_kg)
+    writer = ReportWriter(shipped_kg, max_items=1)
+    try:
+        _report(writer, "r1")
+    finally:
+        writer.close()
+    after_report = compile_table(shipped_kg, first)
+    assert after_report.setup is first.setup
+    row = shipped_kg.select("SELECT ?s WHERE { ?s nfex:inProgram ?p }").rows[0]
+    shipped_kg.update(PREFIXES + f"DELETE WHERE {{ <{row['s']}> ?p ?o }}", author="pytest")
+    after_edit = compile_table(shipped_kg, after_report)
+    assert after_edit.setup is not after_report.setup
+    _same(after_edit, compile_table(shipped_kg))
+
+
+def test_a_quarantined_report_runs_no_measured_rule_and_a_corroborated_one_runs_them(shipped_kg: KnowledgeGraph, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """Footprints: a report waiting for corroboration adds nothing to the rules' view that the measured rules
+    read (its Measurement is out of the view), so their hits are kept; the third reporter admits all three,
+    the evidence summaries change, and every measured rule runs again — with the answer of a full compile."""
+    table = compile_table(shipped_kg)
+    ran: list[str] = []
+    evaluate = pruning.evaluate
+    monkeypatch.setattr(pruning, "evaluate", lambda view, rule, query: ran.append(str(rule.iri)) or evaluate(view, rule, query))
+    writer = ReportWriter(shipped_kg, max_items=1)
+    try:
+        for reporter in ("r1", "r2"):
+            _report(writer, reporter)
+            ran.clear()
+            table = compile_table(shipped_kg, table)
+            assert not [r for r in ran if "measured" in r], ran
+        _report(writer, "r3")
+        ran.clear()
+        table = compile_table(shipped_kg, table)
+    finally:
+        writer.close()
+    measured = {str(r.iri) for r in table.rules if "measured" in str(r.iri)}
+    assert measured and measured <= set(ran)
+    _same(table, compile_table(shipped_kg))
+
+
+def test_evidence_only_tells_a_report_from_configuration(shipped_kg: KnowledgeGraph) -> None:
+    v0 = shipped_kg.version
+    writer = ReportWriter(shipped_kg, max_items=1)
+    try:
+        _report(writer, "r1")
+    finally:
+        writer.close()
+    assert evidence_only(shipped_kg.backend, shipped_kg.diff(v0, shipped_kg.version))
+    rule = shipped_kg.select("SELECT ?r WHERE { ?r a nfex:SparqlRule }").rows[0]["r"]
+    assert not evidence_only(shipped_kg.backend, ChangeSet.adding([(rule, NFEX.enabled, NFEX.x)]))
+    m = shipped_kg.select("SELECT ?m WHERE { ?m a nfex:Measurement }").rows[0]["m"]
+    assert evidence_only(shipped_kg.backend, ChangeSet.adding([(m, NFEX.ateRmse, NFEX.x)]))
+    # a Measurement retyped as a Parameter: its types after the change count
+    assert not evidence_only(shipped_kg.backend, ChangeSet.adding([(m, RDF.type, NFEX.Parameter)]))
+    # an untyped subject, such as a graph setting, is configuration
+    assert not evidence_only(shipped_kg.backend, ChangeSet.adding([(NFEX.minSources, NFEX.value, NFEX.x)]))
+
+
+def test_a_footprint_lists_what_a_rule_reads_or_gives_up() -> None:
+    p = "PREFIX nfex: <https://w3id.org/nfex#> SELECT ?extractor ?reason WHERE { "
+    fp = pruning.footprint(p + "?x a nfex:A ; nfex:b/^nfex:c* ?y . { SELECT ?x (COUNT(?z) AS ?n) WHERE { ?x nfex:d ?z } GROUP BY ?x } "
+                           "OPTIONAL { ?x nfex:e ?w } MINUS { ?x nfex:f ?v } BIND (?x AS ?extractor) BIND ('r' AS ?reason) }")
+    assert fp == {(str(RDF.type), str(NFEX.A)), *((str(NFEX[k]), None) for k in "bcdef")}
+    for opaque in ("?x ?p ?y", "?x !nfex:b ?y", "?x a nfex:A FILTER NOT EXISTS { ?x nfex:b ?y }", "?x nfex:b ?y ; a ?t . GRAPH ?g { ?x nfex:c ?z }"):
+        assert pruning.footprint(p + opaque + " }") is None, opaque
+    assert pruning.footprint("not sparql") is None
+    assert pruning.reads(fp, {(str(NFEX.d), "1")}) and pruning.reads(fp, {(str(RDF.type), str(NFEX.A))})
+    assert not pruning.reads(fp, {(str(RDF.type), str(NFEX.B)), (str(NFEX.g), "x")})
+    assert pruning.reads(None, set()) and pruning.reads(fp, None)
+
+
+def test_a_change_a_rule_reads_runs_it_again(shipped_kg: KnowledgeGraph) -> None:
+    """Regression guard for the footprints: an editor's rule that reads ``nfex:ateRmse`` must see a sweep's
+    Measurement (admitted as written) get a wild ATE, with no configuration change in between."""
+    query = ("PREFIX nfex: <https://w3id.org/nfex#> SELECT DISTINCT ?extractor ?reason WHERE { ?m a nfex:Measurement ; nfex:ateRmse ?a . "
+             "FILTER (?a > 1000) BIND (nfex:ORB AS ?extractor) BIND ('a wild ATE' AS ?reason) }")
+    shipped_kg.update(PREFIXES + f'INSERT DATA {{ nfex:rule_wild a nfex:SparqlRule ; rdfs:label "wild" ; nfex:query """{query}""" }}',
+                      author="pytest")
+    table = compile_table(shipped_kg)
+    assert "ORB" in table.decide({"agent": "car"}).candidates
+    m = shipped_kg.select("SELECT ?m WHERE { ?m a nfex:Measurement ; nfex:ateRmse ?a FILTER NOT EXISTS { ?m prov:wasAttributedTo ?r } } LIMIT 1").rows[0]["m"]
+    shipped_kg.update(PREFIXES + f"DELETE {{ <{m}> nfex:ateRmse ?a }} INSERT {{ <{m}> nfex:ateRmse '5000.0'^^xsd:double }} WHERE {{ <{m}> nfex:ateRmse ?a }}",
+                      author="pytest")
+    carried = compile_table(shipped_kg, table)
+    assert carried.setup is table.setup, "an ATE changed is evidence"
+    assert "ORB" not in carried.decide({"agent": "car"}).candidates
+    _same(carried, compile_table(shipped_kg))
