@@ -1,13 +1,20 @@
-"""Compile per report: the rule table carried forward from the last version (incremental) against a full compile.
+"""Compile per change: the rule table carried forward from the last version (incremental) against a full compile.
 
-    python bench/bench_incremental.py [--sizes 30000,300000] [--reports 5]
+    python bench/bench_incremental.py [--sizes 30000,300000] [--reports 5] [--kinds quarantined,admitted,editor]
 
 For each graph size (the shipped seed plus synthetic Measurements drawn like the shipped sweeps,
-bench/_synthetic.py; seeded once into an embedded store in a temporary folder), a report is committed
-through ``ReportWriter`` and then, alternately, ``compile_table(kg, previous)`` (the observations carried
-from the previous version, evidence/index.py) and ``compile_table(kg)`` (everything read again) are timed on
-the same version; the script prints both medians over ``--reports`` reports and their ratio, and checks that
-both tables decide the same.
+bench/_synthetic.py; seeded once into an embedded store in a temporary folder), changes are committed one
+at a time and, after each, ``compile_table(kg, previous)`` (carried: rules/setup.py, evidence/index.py,
+evidence/view.py) and ``compile_table(kg)`` (everything read again) are timed on the same version; the
+script prints both medians over ``--reports`` changes, their ratio, and checks that both tables decide the
+same. The kinds of change:
+
+- ``quarantined``: a client's report through ``ReportWriter``, from one reporter: it waits for
+  corroboration (evidence/trust.py), the common case of a fleet's stream;
+- ``admitted``: the same with ``nfex:minSources 1``, so every report is admitted and changes the evidence
+  summaries the measured rules read;
+- ``editor``: an editor's small ``kg update`` that disables and re-enables a DSL statement (configuration:
+  the whole table is compiled again, what ``/sparql/update``'s read-your-writes waits for).
 """
 from __future__ import annotations
 
@@ -29,29 +36,48 @@ from nfex_core.feedback import Feedback, ReportWriter  # noqa: E402
 from nfex_core.kg import KnowledgeGraph  # noqa: E402
 from nfex_core.rules.engine import compile_table  # noqa: E402
 
+PREFIX = "PREFIX nfex: <https://w3id.org/nfex#> "
+KINDS = ("quarantined", "admitted", "editor")
 
-def run(size: int, reports: int, settings: Settings) -> tuple[int, float, float, int]:
+
+def _change(kg: KnowledgeGraph, writer: ReportWriter, kind: str, i: int, statement: str) -> None:
+    if kind == "editor":
+        toggle = "INSERT DATA" if i % 2 == 0 else "DELETE DATA"
+        kg.update(PREFIX + f"{toggle} {{ <{statement}> nfex:enabled false }}", author="bench")
+        return
+    writer.write(Feedback("SIFT", {}, {"agent": "car", "light": "dark"}, sequence=f"bench-{kind}-{i}", dataset="bench",
+                          reporter="bench", frames=10, ate_rmse=0.05 + 0.01 * i, extraction_ms=40.0,
+                          width=1241, height=376, tracking_lost=0))
+
+
+def run(size: int, reports: int, kinds: list[str], settings: Settings) -> tuple[int, dict[str, tuple[float, float]]]:
     with tempfile.TemporaryDirectory() as folder:
         lines = graph_lines(size, settings)
         seed_store(folder + "/store", lines, settings)
         kg = KnowledgeGraph.open(folder + "/store", settings=dataclasses.replace(settings, store=folder + "/store"))
         writer = ReportWriter(kg, max_items=1)
+        out: dict[str, tuple[float, float]] = {}
         try:
-            table = compile_table(kg)
-            incremental, full = [], []
-            for i in range(reports):
-                writer.write(Feedback("SIFT", {}, {"agent": "car", "light": "dark"}, sequence=f"bench-{i}", dataset="bench",
-                                      reporter="bench", frames=10, ate_rmse=0.05 + 0.01 * i, extraction_ms=40.0,
-                                      width=1241, height=376, tracking_lost=0))
-                t = time.perf_counter()
-                carried = compile_table(kg, table)
-                incremental.append(time.perf_counter() - t)
-                t = time.perf_counter()
-                whole = compile_table(kg)
-                full.append(time.perf_counter() - t)
-                assert carried.decisions == whole.decisions and carried.configurations == whole.configurations
-                table = carried
-            return len(lines), statistics.median(incremental), statistics.median(full), reports
+            statement = str(kg.select("SELECT ?s WHERE { ?s nfex:inProgram ?p } ORDER BY ?s").rows[0]["s"])
+            for kind in kinds:
+                if kind == "admitted":
+                    kg.update(PREFIX + "DELETE { nfex:minSources nfex:value ?n } INSERT { nfex:minSources nfex:value 1 } "
+                              "WHERE { OPTIONAL { nfex:minSources nfex:value ?n } }", author="bench")
+                table = compile_table(kg)
+                carried_ms, full_ms = [], []
+                for i in range(reports):
+                    _change(kg, writer, kind, i, statement)
+                    t = time.perf_counter()
+                    carried = compile_table(kg, table)
+                    carried_ms.append(time.perf_counter() - t)
+                    t = time.perf_counter()
+                    whole = compile_table(kg)
+                    full_ms.append(time.perf_counter() - t)
+                    assert carried.plain == whole.plain and carried.configurations == whole.configurations
+                    assert carried.cost == whole.cost and carried.admission == whole.admission
+                    table = carried
+                out[kind] = (statistics.median(carried_ms), statistics.median(full_ms))
+            return len(lines), out
         finally:
             writer.close()
             kg.close()
@@ -60,13 +86,19 @@ def run(size: int, reports: int, settings: Settings) -> tuple[int, float, float,
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--sizes", default="30000", help="graph sizes in statements, comma-separated")
-    ap.add_argument("--reports", type=int, default=5)
+    ap.add_argument("--reports", type=int, default=5, help="changes of each kind (the median is printed)")
+    ap.add_argument("--kinds", default=",".join(KINDS), help=f"comma-separated, of: {', '.join(KINDS)}")
     args = ap.parse_args()
+    kinds = [k for k in args.kinds.split(",") if k]
+    unknown = set(kinds) - set(KINDS)
+    if unknown:
+        ap.error(f"unknown kind(s): {', '.join(sorted(unknown))}")
     settings = Settings.from_env()
-    print(f"{'statements':>10} {'incremental (ms)':>17} {'full (ms)':>10} {'ratio':>7}")
+    print(f"{'statements':>10} {'change':>12} {'carried (ms)':>13} {'full (ms)':>10} {'ratio':>7}")
     for size in (int(s) for s in args.sizes.split(",")):
-        n, inc, full, _ = run(size, args.reports, settings)
-        print(f"{n:>10} {inc * 1000:>17.0f} {full * 1000:>10.0f} {full / inc:>6.1f}×", flush=True)
+        n, found = run(size, args.reports, kinds, settings)
+        for kind, (inc, full) in found.items():
+            print(f"{n:>10} {kind:>12} {inc * 1000:>13.0f} {full * 1000:>10.0f} {full / inc:>6.1f}×", flush=True)
     return 0
 
 

@@ -37,6 +37,7 @@ from .types import (
     AcceptRule,
     Citation,
     CompiledShape,
+    ConditionAtom,
     ContextKey,
     Decision,
     Factor,
@@ -91,7 +92,7 @@ class Setup:
                 queries.append(e)
         statements = load_statements(kg, vocab)
         shapes, shape_errors = load_context_shapes(kg, vocab, statements)
-        base = tuple(_base(dict(zip(dims, key, strict=True)), vocab, statements, shapes) for key in keys)
+        base = _bases(keys, dims, vocab, statements, shapes)
         return cls(version, vocab, dims, keys, rules, tuple(queries), tuple(pruning.footprint(r.query) for r in rules), tuple(statements), tuple(shapes),
                    tuple(shape_errors), dict(absent), BudgetTerms.load(kg), load_step_checks(kg),
                    TrustPolicy.load(kg), _min_measurements(kg), _measured_rule_enabled(kg), base)
@@ -114,43 +115,65 @@ class Setup:
         )
 
 
-def _base(context: dict[str, str | None], vocab: Vocabulary, statements: Sequence[CompiledStatement],
-          shapes: Sequence[CompiledShape]) -> Decision:
-    """A context's decision from the statements and shapes in force there (paper §IV-A; engine.py composes)."""
-    pruned: dict[str, list[Citation]] = {}
-    factors: dict[str, dict[str, Factor]] = {}
-    weights: dict[str, Factor] = {m: Factor(1.0) for m in vocab.metrics}
-    bonuses: dict[str, Factor] = {}
-    accept: list[AcceptRule] = []
-    escalation: tuple[int, Citation] | None = None
+def _matching(keys: Sequence[ContextKey], dims: Sequence[str], vocab: Vocabulary, atoms: Sequence[ConditionAtom],
+              position: Mapping[ContextKey, int]) -> list[int]:
+    """The indices of the contexts where every atom holds (types.ConditionAtom.holds), in order: per dimension
+    the values every atom on it admits (unknown never holds), the others free."""
+    choices: list[list[str | None]] = []
+    for d in dims:
+        mine = [a for a in atoms if a.dimension == d]
+        values: list[str | None] = [*vocab.dimensions[d].values, None]
+        choices.append([v for v in values if all(a.holds({d: v}) for a in mine)] if mine else values)
+    if any(a.dimension not in dims for a in atoms):
+        return []
+    return sorted(position[key] for key in itertools.product(*choices))
+
+
+def _bases(keys: Sequence[ContextKey], dims: Sequence[str], vocab: Vocabulary, statements: Sequence[CompiledStatement],
+           shapes: Sequence[CompiledShape]) -> tuple[Decision, ...]:
+    """Each context's decision from the statements and shapes in force there (paper §IV-A; engine.py composes):
+    statement by statement over the contexts it applies in, so the work follows the statements' reach."""
+    position = {key: i for i, key in enumerate(keys)}
+    pruned: list[dict[str, list[Citation]]] = [{} for _ in keys]
+    factors: list[dict[str, dict[str, Factor]]] = [{} for _ in keys]
+    weights: list[dict[str, Factor]] = [{m: Factor(1.0) for m in vocab.metrics} for _ in keys]
+    bonuses: list[dict[str, Factor]] = [{} for _ in keys]
+    accept: list[list[AcceptRule]] = [[] for _ in keys]
+    escalation: list[tuple[int, Citation] | None] = [None for _ in keys]
     for s in statements:
-        if not s.applies(context):
-            continue
         cite = _citation(s)
-        if s.kind == "prune" and s.extractor:
-            pruned.setdefault(s.extractor, []).append(cite)
-        elif s.kind == "adjust" and s.extractor and s.parameter and s.value is not None:
-            old = factors.setdefault(s.extractor, {}).get(s.parameter, Factor(1.0))
-            factors[s.extractor][s.parameter] = Factor(old.value * float(s.value), old.citations + (cite,))
-        elif s.kind == "weight" and s.metric and s.value is not None:
-            old = weights[s.metric]
-            weights[s.metric] = Factor(old.value * float(s.value), old.citations + (cite,))
-        elif s.kind == "prefer" and s.extractor and s.value is not None:
-            old = bonuses.get(s.extractor, Factor(0.0))
-            bonuses[s.extractor] = Factor(old.value + float(s.value), old.citations + (cite,))
-        elif s.kind == "accept" and s.tests:
-            accept.append(AcceptRule(tuple(PairTest(*t) for t in s.tests), s.atoms, cite))
-        elif s.kind == "escalate" and s.value is not None and (escalation is None or int(s.value) < escalation[0]):
-            escalation = (int(s.value), cite)  # the strictest in force
-    in_force = tuple(sh for sh in shapes if sh.applies(context))
-    for sh in in_force:  # a prohibition prunes here; bounds are checked per candidate Θ′
-        if sh.bound is None:
-            for name in vocab.extractors:
-                if sh.concerns(name):
-                    pruned.setdefault(name, []).append(sh.citation)
-    return Decision(context=context, candidates=(), pruned={x: tuple(c) for x, c in pruned.items()}, factors=factors,
-                    weights=weights, bonuses=bonuses, shapes=in_force,
-                    verification=Policy(tuple(accept), *(escalation or (DEFAULT_ESCALATIONS, None))))
+        for i in _matching(keys, dims, vocab, s.atoms, position):
+            if s.kind == "prune" and s.extractor:
+                pruned[i].setdefault(s.extractor, []).append(cite)
+            elif s.kind == "adjust" and s.extractor and s.parameter and s.value is not None:
+                old = factors[i].setdefault(s.extractor, {}).get(s.parameter, Factor(1.0))
+                factors[i][s.extractor][s.parameter] = Factor(old.value * float(s.value), old.citations + (cite,))
+            elif s.kind == "weight" and s.metric and s.value is not None:
+                old = weights[i][s.metric]
+                weights[i][s.metric] = Factor(old.value * float(s.value), old.citations + (cite,))
+            elif s.kind == "prefer" and s.extractor and s.value is not None:
+                old = bonuses[i].get(s.extractor, Factor(0.0))
+                bonuses[i][s.extractor] = Factor(old.value + float(s.value), old.citations + (cite,))
+            elif s.kind == "accept" and s.tests:
+                accept[i].append(AcceptRule(tuple(PairTest(*t) for t in s.tests), s.atoms, cite))
+            elif s.kind == "escalate" and s.value is not None:
+                current = escalation[i]
+                if current is None or int(s.value) < current[0]:
+                    escalation[i] = (int(s.value), cite)  # the strictest in force
+    in_force: list[list[CompiledShape]] = [[] for _ in keys]
+    for sh in shapes:
+        for i in _matching(keys, dims, vocab, sh.atoms, position):
+            in_force[i].append(sh)
+            if sh.bound is None:  # a prohibition prunes here; bounds are checked per candidate Θ′
+                for name in vocab.extractors:
+                    if sh.concerns(name):
+                        pruned[i].setdefault(name, []).append(sh.citation)
+    return tuple(
+        Decision(context=dict(zip(dims, key, strict=True)), candidates=(), pruned={x: tuple(c) for x, c in pruned[i].items()},
+                 factors=factors[i], weights=weights[i], bonuses=bonuses[i], shapes=tuple(in_force[i]),
+                 verification=Policy(tuple(accept[i]), *(escalation[i] or (DEFAULT_ESCALATIONS, None))))
+        for i, key in enumerate(keys)
+    )
 
 
 def _measured_rule_enabled(kg: KnowledgeGraph) -> bool:

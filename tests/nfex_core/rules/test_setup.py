@@ -13,10 +13,12 @@ from hypothesis import strategies as st
 
 from nfex_core.feedback import Feedback, ReportWriter
 from nfex_core.kg import KnowledgeGraph
-from nfex_core.kg.changes import ChangeSet, evidence_only
+from nfex_core.kg.changes import ChangeSet, evidence_only, graph_triples
 from nfex_core.namespaces import NFEX, RDF
 from nfex_core.rules import pruning
+from nfex_core.rules.dsl.programs import compile_text
 from nfex_core.rules.engine import RuleTable, compile_table
+from nfex_core.rules.setup import Setup
 
 from ..evidence.test_index import OPS, PREFIXES, _apply
 from ..evidence.test_view import _trust
@@ -161,3 +163,44 @@ def test_a_change_a_rule_reads_runs_it_again(shipped_kg: KnowledgeGraph) -> None
     assert carried.setup is table.setup, "an ATE changed is evidence"
     assert "ORB" not in carried.decide({"agent": "car"}).candidates
     _same(carried, compile_table(shipped_kg))
+
+
+def _reference(context: dict[str, str | None], setup: Setup) -> tuple[dict[str, list[str]], dict[str, object], tuple[str, ...]]:
+    """A context's statement and shape effects the plain way: every statement and shape asked whether it applies."""
+    pruned: dict[str, list[str]] = {}
+    effects: dict[str, object] = {}
+    for s in setup.statements:
+        if s.applies(context):
+            if s.kind == "prune" and s.extractor:
+                pruned.setdefault(s.extractor, []).append(str(s.iri))
+            effects.setdefault(s.kind, []).append(str(s.iri))  # type: ignore[attr-defined]
+    shapes = tuple(str(sh.iri) for sh in setup.shapes if sh.applies(context))
+    for sh in setup.shapes:
+        if sh.applies(context) and sh.bound is None:
+            for x in setup.vocab.extractors:
+                if sh.concerns(x):
+                    pruned.setdefault(x, []).append(str(sh.iri))
+    return pruned, effects, shapes
+
+
+def test_each_contexts_base_is_what_asking_every_statement_gives(shipped_kg: KnowledgeGraph) -> None:
+    """``Setup`` walks statement by statement over the contexts each reaches; asking every statement in every
+    context must give the same prunes (in order), the same statements in force and the same shapes."""
+    program = ("prune ORB when light is dark and agent is not car\nprune BRISK when texture is not low and texture is not high\nadjust SIFT.nfeatures by 0.5 when texture is not one of (high, medium)\n"
+               "prefer ORB_GRID by 0.2 when texture is low\nweight texturedness 2.0 when light is dark\nescalate at most 2 when motion is fast\n")
+    shipped_kg.commit(ChangeSet.adding(graph_triples(compile_text(program, shipped_kg.vocabulary(), name="pytest-base")[1])),
+                      author="pytest")
+    setup = Setup.read(shipped_kg, {})
+    kinds = {"prune", "adjust", "weight", "prefer", "escalate"}
+    assert kinds <= {s.kind for s in setup.statements}
+    for key, base in zip(setup.keys, setup.base, strict=True):
+        pruned, effects, shapes = _reference(dict(zip(setup.dimensions, key, strict=True)), setup)
+        assert {x: [c.rule for c in cites] for x, cites in base.pruned.items()} == pruned
+        assert tuple(str(sh.iri) for sh in base.shapes) == shapes
+        for params in base.factors.values():
+            for factor in params.values():
+                assert {c.rule for c in factor.citations} <= set(effects["adjust"])  # type: ignore[arg-type]
+        for b in base.bonuses.values():
+            assert {c.rule for c in b.citations} <= set(effects["prefer"])  # type: ignore[arg-type]
+        forced = effects.get("escalate")
+        assert (base.verification.escalation_citation is not None) == bool(forced)
