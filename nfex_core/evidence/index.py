@@ -90,11 +90,13 @@ class ObservationIndex:
         """As cost.measured_settings: the configurations a Measurement used that have settings."""
         return {c: dict(s) for c, s in self.settings.items() if s}
 
-    def advance(self, kg: KnowledgeGraph, diff: Diff | None = None) -> ObservationIndex:
-        """The index at the head, reading again only what the change since ``version`` can have touched.
-        ``diff``: how to read that change (default ``kg.diff``; a compile shares one between its readers)."""
+    def advance(self, kg: KnowledgeGraph, diff: Diff | None = None, head: int | None = None) -> ObservationIndex:
+        """The index at ``head`` (default: the store's head), reading again only what the change since ``version``
+        can have touched. ``diff``: how to read that change (default ``kg.diff``; a compile shares one between its
+        readers). A commit landing after ``head`` while nodes are read may show in their rows; those nodes are
+        in the next advance's change, so they are read again then."""
         t0 = time.perf_counter()
-        head = kg.version
+        head = kg.version if head is None else head
         if head == self.version:
             return self
         try:

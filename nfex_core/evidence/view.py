@@ -42,7 +42,8 @@ import pyoxigraph as ox
 from rdflib.term import Literal, URIRef
 
 from ..kg.backends import EmbeddedBackend
-from ..kg.history import ChangeText
+from ..kg.claims import META
+from ..kg.history import HEAD, ChangeText
 from ..kg.terms import py
 from ..namespaces import NFEX
 from .aggregate import robust
@@ -112,10 +113,11 @@ class EvidenceView:
 
     def advance(self, kg: KnowledgeGraph, admission: Admission, admitted: Iterable[Observation],
                 extractor_iris: Mapping[str, str], value_iris: Mapping[tuple[str, str], str],
-                diff: Diff | None = None) -> EvidenceView:
-        """The view of the head, made from this one (module docstring), or a fresh one where it cannot be.
-        ``diff``: how to read the change (default ``kg.diff``; a compile shares one with the observation index)."""
-        head = kg.version
+                diff: Diff | None = None, head: int | None = None) -> EvidenceView:
+        """The view of ``head`` (default: the store's head), made from this one (module docstring), or a fresh one
+        where it cannot be. ``diff``: how to read the change (default ``kg.diff``; a compile shares one with the
+        observation index)."""
+        head = kg.version if head is None else head
         if self.version < 0:
             return evidence_view(kg, admission, admitted, extractor_iris, value_iris)
         try:
@@ -136,14 +138,16 @@ class EvidenceView:
         quarantined = frozenset(admission.quarantined)
         _delete_subjects(store, quarantined)
         readmitted = sorted(self.quarantined - quarantined)
+        version = head
         for i in range(0, len(readmitted), _BATCH):
             dump = io.BytesIO()
             values = " ".join(f"<{m}>" for m in readmitted[i : i + _BATCH])
             kg.backend.query_to(f"CONSTRUCT {{ ?m ?p ?o }} WHERE {{ VALUES ?m {{ {values} }} ?m ?p ?o }}", "application/n-triples", dump)
             store.load(dump.getvalue(), format=ox.RdfFormat.N_TRIPLES)
+            version = _settled(kg, head)  # read from the store: pinned to ``head`` only if no commit landed since
         _insert_data(store, sorted(summary - self.summary))
         touched = _touched(kg, change, self.quarantined, quarantined, self.summary ^ summary)
-        return EvidenceView(_settled(kg, head), self.backend, quarantined, summary, incremental=True, touched=touched)
+        return EvidenceView(version, self.backend, quarantined, summary, incremental=True, touched=touched)
 
 
 def _touched(kg: KnowledgeGraph, change: ChangeSet, before: frozenset[str], after: frozenset[str],
@@ -191,21 +195,32 @@ def evidence_view(
     kg: KnowledgeGraph, admission: Admission, admitted: Iterable[Observation],
     extractor_iris: Mapping[str, str], value_iris: Mapping[tuple[str, str], str],
 ) -> EvidenceView:
-    """A fresh view (module docstring): the stored graph dumped and loaded, less the quarantined, plus the summaries."""
-    version = kg.version
+    """A fresh view (module docstring): the stored graph dumped and loaded, less the quarantined, plus the summaries.
+    The dump carries the version it read (one query reads one state of the store, and a commit writes its data
+    and the head in one operation), so the view knows its version even while commits land."""
     dump = io.BytesIO()
-    kg.backend.query_to("CONSTRUCT { ?s ?p ?o } WHERE { ?s ?p ?o }", "application/n-triples", dump)
+    kg.backend.query_to(_VERSIONED_DUMP, "application/n-triples", dump)
     view = EmbeddedBackend(None)
     store: ox.Store = view._store
     store.load(dump.getvalue(), format=ox.RdfFormat.N_TRIPLES)
+    mark = ox.NamedNode(_MARK)
+    found = [int(q.object.value) for q in store.quads_for_pattern(mark, mark, None) if isinstance(q.object, ox.Literal)]
+    store.update(f"DELETE WHERE {{ <{_MARK}> <{_MARK}> ?v }}")
+    version = max(found) if found else -1
     quarantined = frozenset(admission.quarantined)
     _delete_subjects(store, quarantined)
     text = summaries(admitted, extractor_iris, value_iris)
     store.load(text.encode(), format=ox.RdfFormat.N_TRIPLES)
-    return EvidenceView(_settled(kg, version), view, quarantined, frozenset(text.splitlines()) - {""})
+    return EvidenceView(version, view, quarantined, frozenset(text.splitlines()) - {""})
+
+
+_MARK = "urn:nfex:view-version"
+_VERSIONED_DUMP = f"""CONSTRUCT {{ ?s ?p ?o . <{_MARK}> <{_MARK}> ?v }} WHERE {{
+    {{ ?s ?p ?o }} UNION {{ GRAPH <{META}> {{ <{HEAD}> <{NFEX.versionNumber}> ?v }} }}
+}}"""
 
 
 def _settled(kg: KnowledgeGraph, version: int) -> int:
-    """``version``, or −1 (the next view is made fresh) when a commit landed while the store was read: the
-    view may then hold a triple of a later version that a diff from ``version`` would not take out again."""
+    """``version``, or −1 (the next view is made fresh) when a commit landed after it before the store was read:
+    the view may then hold a triple of a later version that a diff from ``version`` would not take out again."""
     return version if kg.version == version else -1

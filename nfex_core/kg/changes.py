@@ -103,13 +103,15 @@ EVIDENCE_CLASSES = frozenset({
 })
 
 
-def evidence_only(backend: Backend, change: ChangeSet) -> bool:
+def evidence_only(backend: Backend, change: ChangeSet, later: ChangeSet | None = None) -> bool:
     """Whether ``change`` touches evidence and nothing else: every subject it adds or removes a triple of is
     an IRI typed, before or after the change, with ``EVIDENCE_CLASSES`` only (an untyped subject is not).
 
-    ``backend`` holds the graph *after* the change: a subject's types before it are those after, less the
-    type triples the change added, plus those it removed — so the types read here (after, and every type
-    triple of the change) include both. What a compile derives from the graph's configuration alone
+    ``backend`` holds the graph after the change, then ``later`` (the net change since, if any; the caller
+    checks that no commit landed while the types were read). A subject's types after the change are those
+    read, less the type triples ``later`` added, plus those it removed; its types before the change are those
+    after, less the type triples the change added, plus those it removed — so the types after, with every
+    type triple of the change, include both. What a compile derives from the graph's configuration alone
     (rules/setup.py) is then the same on both sides of the change, since its readers only read nodes of
     configuration classes and the nodes they link to, which a report never writes
     (tests/nfex_core/rules/test_setup.py compares with a full compile after random changes)."""
@@ -119,14 +121,21 @@ def evidence_only(backend: Backend, change: ChangeSet) -> bool:
     if any(not isinstance(s, URIRef) for s in subjects):
         return False
     types: dict[Node, set[Node]] = {s: set() for s in subjects}
-    for s, p, o in change.added | change.removed:
-        if p == RDF.type:
-            types[s].add(o)
     items = sorted(subjects, key=str)
     for i in range(0, len(items), 500):
         values = " ".join(n3(x) for x in items[i : i + 500])
         for r in backend.select(f"SELECT ?s ?t WHERE {{ VALUES ?s {{ {values} }} ?s {n3(RDF.type)} ?t }}").rows:
             types[r["s"]].add(r["t"])
+    if later is not None:
+        for s, p, o in later.added:
+            if p == RDF.type and s in types:
+                types[s].discard(o)
+        for s, p, o in later.removed:
+            if p == RDF.type and s in types:
+                types[s].add(o)
+    for s, p, o in change.added | change.removed:
+        if p == RDF.type:
+            types[s].add(o)
     return all(t and t <= EVIDENCE_CLASSES for t in types.values())
 
 

@@ -182,7 +182,7 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     absent = backend_citations(kg, kg.vocabulary().extractors)
     setup = _carried_setup(kg, previous, version, diff, absent) or Setup.read(kg, absent)
     vocab, dims = setup.vocab, setup.dimensions
-    index = previous.index.advance(kg, diff) if previous is not None and previous.index is not None else ObservationIndex.read(kg)
+    index = previous.index.advance(kg, diff, version) if previous is not None and previous.index is not None else ObservationIndex.read(kg)
     observations = index.all()
     admission = admit(observations, setup.policy)
     evidence = admission.select(observations)
@@ -191,7 +191,7 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     carried = previous.take_view() if previous is not None and setup.rules else None
     made: EvidenceView | None = None
     if setup.rules:
-        made = carried.advance(kg, admission, evidence, extractor_iris, value_iris, diff) if carried is not None \
+        made = carried.advance(kg, admission, evidence, extractor_iris, value_iris, diff, version) if carried is not None \
             else evidence_view(kg, admission, evidence, extractor_iris, value_iris)
     view = made.backend if made is not None else kg.backend
     errors: list[str] = []
@@ -254,11 +254,14 @@ def _carried_setup(kg: KnowledgeGraph, previous: RuleTable | None, version: int,
         return None
     try:
         change = diff(previous.version, version)
+        for _ in range(3):  # the types are read at ``now``; a commit landing while they are read: read again
+            now = kg.version
+            found = evidence_only(kg.backend, change, diff(version, now) if now != version else None)
+            if kg.version == now:
+                return previous.setup if found else None
     except Exception:  # a pruned or unreadable history
         return None
-    if not evidence_only(kg.backend, change) or kg.version != version:  # a commit since: its types may differ
-        return None
-    return previous.setup
+    return None
 
 
 BACKEND_RULE = "https://w3id.org/nfex#rule_backend_available"

@@ -7,6 +7,7 @@ evidence only keeps the configuration stage, and one of configuration reads it a
 from __future__ import annotations
 
 import random
+import time
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -204,3 +205,61 @@ def test_each_contexts_base_is_what_asking_every_statement_gives(shipped_kg: Kno
             assert {c.rule for c in b.citations} <= set(effects["prefer"])  # type: ignore[arg-type]
         forced = effects.get("escalate")
         assert (base.verification.escalation_citation is not None) == bool(forced)
+
+
+def test_types_read_after_later_commits_are_taken_back_to_the_changes_version(shipped_kg: KnowledgeGraph) -> None:
+    """``evidence_only``'s ``later``: a compile pinned to version v reads the types after commits that landed
+    since; a Measurement retyped after v must be judged by its types at v."""
+    v0 = shipped_kg.version
+    writer = ReportWriter(shipped_kg, max_items=1)
+    try:
+        _report(writer, "r1")
+    finally:
+        writer.close()
+    v1 = shipped_kg.version
+    m = next(t[0] for t in shipped_kg.diff(v0, v1).added if t[1] == RDF.type and t[2] == NFEX.Measurement)
+    shipped_kg.commit(ChangeSet.adding([(m, RDF.type, NFEX.Curiosity)]), author="pytest")  # a class of no evidence
+    change, later = shipped_kg.diff(v0, v1), shipped_kg.diff(v1, shipped_kg.version)
+    assert not evidence_only(shipped_kg.backend, change), "read now, it is something else too"
+    assert evidence_only(shipped_kg.backend, change, later), "at v1 it was a Measurement"
+
+
+def test_under_a_stream_of_reports_each_compile_carries_the_last(shipped_kg: KnowledgeGraph, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """Regression: a compile that saw a commit land while it ran gave its view version −1, so under a stream
+    every compile dumped the graph again and read its configuration again. A compile is now pinned to the
+    version it started at: the view is advanced and the configuration stage carried while reports land
+    (each compile here is slowed by 0.1 s, so that commits do land in it)."""
+    import threading
+
+    from nfex_core.evidence.index import ObservationIndex
+
+    advance = ObservationIndex.advance
+    monkeypatch.setattr(ObservationIndex, "advance", lambda self, *a: time.sleep(0.1) or advance(self, *a))
+    table = compile_table(shipped_kg)
+    first = table.setup
+    done = threading.Event()
+    writer = ReportWriter(shipped_kg, max_items=4)
+
+    def stream() -> None:
+        try:
+            for i in range(24):
+                _report(writer, f"r{i % 2}")
+        finally:
+            done.set()
+
+    thread = threading.Thread(target=stream)
+    thread.start()
+    compiles = carried = 0
+    try:
+        while not done.is_set():
+            if shipped_kg.version != table.version:
+                table = compile_table(shipped_kg, table)
+                compiles += 1
+                carried += table.setup is first and table.view is not None and table.view.incremental and table.view.version >= 0
+    finally:
+        thread.join()
+        writer.close()
+    table = compile_table(shipped_kg, table)
+    assert compiles >= 3 and carried == compiles, (carried, compiles)
+    assert table.setup is first
+    _same(table, compile_table(shipped_kg))
