@@ -77,7 +77,8 @@ class RuleTable:
     index: ObservationIndex | None = field(default=None, repr=False)  # the observations read, for the next compile
     view: EvidenceView | None = field(default=None, repr=False, compare=False)  # the rules' view, for the next compile
     setup: Setup | None = field(default=None, repr=False, compare=False)  # the configuration stage, for the next compile
-    hits: tuple[dict[int, list[tuple[str, Citation]]] | None, ...] = field(default=(), repr=False, compare=False)  # per rule; None: it failed
+    # per (rule, its contextualised query): the contexts it prunes in, with the extractors and citations
+    hits: dict[tuple[pruning.SparqlRule, str], dict[int, list[tuple[str, Citation]]]] = field(default_factory=dict, repr=False, compare=False)
     ruled: dict[int, tuple[tuple[str, Citation], ...]] = field(default_factory=dict, repr=False, compare=False)  # rule prunes per context
     plain: dict[ContextKey, Decision] = field(default_factory=dict, repr=False, compare=False)  # decisions before evidence (``decide``)
     _measured: dict[ContextKey, dict[str, tuple[MeasuredConfiguration, ...]]] = field(default_factory=dict, repr=False)
@@ -198,19 +199,22 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     ruled: dict[int, list[tuple[str, Citation]]] = {}
     same = previous is not None and previous.setup is setup
     touched = made.touched if made is not None else None
-    hits: list[dict[int, list[tuple[str, Citation]]] | None] = []
+    # a rule's last hits stand where its query is the same, the extractors are named alike and the view's
+    # change since misses the rule's footprint (pruning.footprint), whatever else of the configuration changed
+    earlier = previous.hits if previous is not None and touched is not None and previous.setup is not None \
+        and _extractor_names(previous.setup) == _extractor_names(setup) else {}
+    hits: dict[tuple[pruning.SparqlRule, str], dict[int, list[tuple[str, Citation]]]] = {}
     for k, (rule, query) in enumerate(zip(setup.rules, setup.queries, strict=True)):
-        kept = previous.hits[k] if same and previous is not None and k < len(previous.hits) else None
+        if isinstance(query, Exception):  # a broken rule must not take selection down; it is reported
+            errors.append(f"{rule.iri}: {query}")
+            continue
+        kept = earlier.get((rule, query))
         if kept is None or pruning.reads(setup.footprints[k], touched):
-            kept = None
             try:
-                if isinstance(query, Exception):
-                    raise query
                 found = pruning.evaluate(view, rule, query)
             except Exception as e:  # a broken rule must not take selection down; it is reported
                 errors.append(f"{rule.iri}: {e}")
                 log.warning("pruning rule %s failed: %s", rule.iri, e)
-                hits.append(None)
                 continue
             kept = {}
             for i, found_here in found.items():
@@ -218,7 +222,7 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
                     spec = vocab.by_iri.get(URIRef(x))
                     if isinstance(spec, ExtractorSpec):
                         kept.setdefault(i, []).append((spec.name, Citation(str(rule.iri), rule.label, reason, "sparql", rule.source)))
-        hits.append(kept)
+        hits[(rule, query)] = kept
         for i, pairs in kept.items():
             ruled.setdefault(i, []).extend(pairs)
     errors += setup.errors
@@ -243,7 +247,11 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
              len(setup.statements), version, ms, "read in full" if index.reread < 0 else f"{index.reread} re-read", index.ms)
     return RuleTable(version, dims, dict(plain), list(setup.rules), list(setup.statements), errors, ms, cost, setup.budget_terms,
                      configurations, setup.min_measurements, observed, admission, step_checks=dict(setup.step_checks),
-                     index=index, view=made, setup=setup, hits=tuple(hits), ruled={i: tuple(r) for i, r in ruled.items()}, plain=plain)
+                     index=index, view=made, setup=setup, hits=hits, ruled={i: tuple(r) for i, r in ruled.items()}, plain=plain)
+
+
+def _extractor_names(setup: Setup) -> dict[str, str]:
+    return {str(spec.iri): name for name, spec in setup.vocab.extractors.items()}
 
 
 def _carried_setup(kg: KnowledgeGraph, previous: RuleTable | None, version: int, diff: Diff,

@@ -263,3 +263,22 @@ def test_under_a_stream_of_reports_each_compile_carries_the_last(shipped_kg: Kno
     assert compiles >= 3 and carried == compiles, (carried, compiles)
     assert table.setup is first
     _same(table, compile_table(shipped_kg))
+
+
+def test_an_editors_change_that_no_rule_reads_keeps_every_rules_hits(shipped_kg: KnowledgeGraph, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """A statement dropped is configuration (the stage is read again) but no SPARQL rule reads statements:
+    their hits stand. A threshold the relative-ATE rule reads runs that rule again."""
+    table = compile_table(shipped_kg)
+    ran: list[str] = []
+    evaluate = pruning.evaluate
+    monkeypatch.setattr(pruning, "evaluate", lambda view, rule, query: ran.append(str(rule.iri)) or evaluate(view, rule, query))
+    row = shipped_kg.select("SELECT ?s WHERE { ?s nfex:inProgram ?p } ORDER BY ?s").rows[0]
+    shipped_kg.update(PREFIXES + f"DELETE WHERE {{ <{row['s']}> ?p ?o }}", author="pytest")
+    table = compile_table(shipped_kg, table)
+    assert ran == [] and table.setup is not None
+    _same(table, compile_table(shipped_kg))
+    ran.clear()
+    _configure(shipped_kg, "threshold", random.Random(1))
+    table = compile_table(shipped_kg, table)
+    assert any("relative" in r for r in ran), ran
+    _same(table, compile_table(shipped_kg))
