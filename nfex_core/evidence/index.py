@@ -5,7 +5,8 @@ a compile's time on a graph with many measurements, yet a feedback report adds o
 ``ObservationIndex`` holds both at graph version v; ``advance(kg)`` brings it to the head by re-reading only
 what the change since v can have touched:
 
-- S: every subject of a triple the change added or removed (kg.diff(v, head));
+- S: every subject of a triple the change added or removed (kg.diff(v, head)) that the rows' queries can
+  read (their footprint, kg/footprint.py: an extractor's comment or a statement is not);
 - a Measurement's row reads its own triples and, along ``?m → ?cfg → ?extractor``, ``?m → ?condition →
   ?dimension``, ``?m → ?sequence``, nodes at most two steps away; a configuration's settings read
   ``?cfg → ?setting → ?parameter``, also two steps. So the affected nodes are S and every node with a path of
@@ -19,6 +20,7 @@ The result equals a full read (tests/nfex_core/evidence/test_index.py: random ch
 """
 from __future__ import annotations
 
+import functools
 import logging
 import time
 from collections import Counter
@@ -28,9 +30,11 @@ from typing import TYPE_CHECKING
 
 from rdflib.term import URIRef
 
+from ..kg.footprint import Footprint, footprint, reads
+from ..kg.history import prefix_block
 from ..kg.specs import Value
-from ..kg.terms import py
-from .observations import Observation, read_observations, restricted
+from ..kg.terms import Triple, py
+from .observations import OBSERVATIONS, Observation, read_observations, restricted
 
 if TYPE_CHECKING:
     from ..kg.changes import ChangeSet
@@ -104,7 +108,8 @@ class ObservationIndex:
         except Exception as e:  # a pruned or unreadable history: read everything
             log.info("observation index: no diff from version %d (%s); reading all", self.version, e)
             return ObservationIndex.read(kg)
-        subjects = {t[0] for t in (*change.added, *change.removed)}
+        relevant = _relevant(change)
+        subjects = {t[0] for t in relevant}
         if len(subjects) > MAX_SUBJECTS or any(not isinstance(s, URIRef) or not _nameable(str(s)) for s in subjects):
             return ObservationIndex.read(kg)
         touched = {str(s) for s in subjects}
@@ -125,6 +130,20 @@ class ObservationIndex:
         settings.update(read_settings(kg, stale))
         return ObservationIndex(head, observations, settings, {c: uses[c] for c in configurations}, len(touched),
                                 (time.perf_counter() - t0) * 1000)
+
+
+@functools.cache
+def _footprint() -> Footprint | None:
+    """What a Measurement's row and a configuration's settings read (kg/footprint.py)."""
+    rows, settings = footprint(prefix_block() + OBSERVATIONS), footprint(prefix_block() + SETTINGS)
+    return None if rows is None or settings is None else rows | settings
+
+
+def _relevant(change: ChangeSet) -> list[Triple]:
+    """The triples of ``change`` that a row of the index can read: a change of anything else (an extractor's
+    comment, a statement) re-reads nothing."""
+    fp = _footprint()
+    return [t for t in (*change.added, *change.removed) if reads(fp, {(str(t[1]), str(t[2]))})]
 
 
 def _nameable(iri: str) -> bool:

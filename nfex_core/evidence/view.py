@@ -152,7 +152,7 @@ class EvidenceView:
 
 def _touched(kg: KnowledgeGraph, change: ChangeSet, before: frozenset[str], after: frozenset[str],
              summary: Iterable[str]) -> frozenset[tuple[str, str]] | None:
-    """The (predicate, object) pairs of the triples by which the view changed, for rules/pruning.py ``reads``;
+    """The (predicate, object) pairs of the triples by which the view changed, for kg/footprint.py ``reads``;
     None where they are not known here: a Measurement left quarantine, or one that had triples before the
     change entered it (its stored triples come or go whole). A triple of a Measurement quarantined on both
     sides of the change never was in the view, nor was one added for a Measurement quarantined on arrival."""

@@ -37,6 +37,7 @@ from ..evidence import Admission, Observation, admit, robust
 from ..evidence.index import Diff, ObservationIndex
 from ..evidence.view import EvidenceView, evidence_view
 from ..kg.changes import evidence_only
+from ..kg.footprint import reads
 from ..kg.vocab import ExtractorSpec, Value
 from . import pruning
 from .setup import Setup
@@ -200,7 +201,7 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     same = previous is not None and previous.setup is setup
     touched = made.touched if made is not None else None
     # a rule's last hits stand where its query is the same, the extractors are named alike and the view's
-    # change since misses the rule's footprint (pruning.footprint), whatever else of the configuration changed
+    # change since misses the rule's footprint (kg/footprint.py), whatever else of the configuration changed
     earlier = previous.hits if previous is not None and touched is not None and previous.setup is not None \
         and _extractor_names(previous.setup) == _extractor_names(setup) else {}
     hits: dict[tuple[pruning.SparqlRule, str], dict[int, list[tuple[str, Citation]]]] = {}
@@ -209,7 +210,7 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
             errors.append(f"{rule.iri}: {query}")
             continue
         kept = earlier.get((rule, query))
-        if kept is None or pruning.reads(setup.footprints[k], touched):
+        if kept is None or reads(setup.footprints[k], touched):
             try:
                 found = pruning.evaluate(view, rule, query)
             except Exception as e:  # a broken rule must not take selection down; it is reported

@@ -13,9 +13,8 @@ variables from a ``VALUES`` table of all contexts and projects a context index `
 """
 from __future__ import annotations
 
-import functools
 import re
-from collections.abc import Collection, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -23,9 +22,6 @@ from typing import TYPE_CHECKING
 import pyoxigraph as ox
 import rdflib
 from rdflib.namespace import RDF, RDFS
-from rdflib.paths import AlternativePath, InvPath, MulPath, SequencePath
-from rdflib.plugins.sparql import prepareQuery
-from rdflib.plugins.sparql.algebra import traverse
 from rdflib.term import Literal, URIRef
 
 from ..config import Settings
@@ -159,60 +155,3 @@ def evaluate(backend: Backend, rule: SparqlRule, query: str) -> dict[int, list[t
             continue
         out.setdefault(int(py(r["ctx"])), []).append((r["extractor"], str(r.get("reason", rule.label))))
     return out
-
-
-Footprint = frozenset[tuple[str, str | None]]  # (predicate, object or None: any)
-_OPAQUE = {"GroupGraphPatternSub", "TriplesBlock", "ServiceGraphPattern", "Graph"}  # patterns not in algebra form
-
-
-@functools.lru_cache(maxsize=256)
-def footprint(query: str) -> Footprint | None:
-    """The triples ``query`` can read, as (predicate, object) pairs — the object only for ``rdf:type`` with a
-    constant class, else None (any) — or None where that cannot be told (a variable predicate, a negated
-    property set, a pattern rdflib's algebra leaves unparsed, a query rdflib cannot parse).
-
-    Every triple pattern of a SPARQL query has a predicate, or a property path of predicates; a pattern whose
-    predicate is a constant p matches triples with predicate p only (and, for ``?x a C``, object C only). So
-    the answer of a query with a footprint is a function of the graph's triples that match it, and a change
-    that adds or removes none of those leaves the answer as it was (engine.py then keeps a rule's last hits)."""
-    try:
-        algebra = prepareQuery(query).algebra
-    except Exception:
-        return None
-    found: set[tuple[str, str | None]] = set()
-    opaque = False
-
-    def predicates(path: object) -> bool:
-        if isinstance(path, URIRef):
-            found.add((str(path), None))
-            return True
-        if isinstance(path, SequencePath | AlternativePath):
-            return all(predicates(a) for a in path.args)
-        if isinstance(path, InvPath):
-            return predicates(path.arg)
-        if isinstance(path, MulPath):
-            return predicates(path.path)
-        return False  # a variable, a negated property set
-
-    def visit(node: object) -> None:
-        nonlocal opaque
-        name = getattr(node, "name", None)
-        if name in _OPAQUE:
-            opaque = True
-        elif name == "BGP":
-            for _, p, o in node.triples:  # type: ignore[attr-defined]
-                if p == RDF.type and isinstance(o, URIRef):
-                    found.add((str(p), str(o)))
-                elif not predicates(p):
-                    opaque = True
-
-    traverse(algebra, visitPre=visit)
-    return None if opaque else frozenset(found)
-
-
-def reads(footprint: Footprint | None, touched: Collection[tuple[str, str]] | None) -> bool:
-    """Whether a change of the (predicate, object) pairs ``touched`` (None: unknown) can change the answer of a
-    query with ``footprint`` (``footprint``)."""
-    if footprint is None or touched is None:
-        return True
-    return any((p, None) in footprint or (p, o) in footprint for p, o in touched)

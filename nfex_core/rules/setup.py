@@ -26,6 +26,7 @@ from nfex_slam.motion import StepChecks
 
 from ..cost import BudgetTerms
 from ..evidence import TrustPolicy
+from ..kg.footprint import Footprint, footprint
 from ..kg.terms import py
 from ..kg.vocab import Vocabulary
 from ..motion import load_step_checks
@@ -65,7 +66,7 @@ class Setup:
     value_iris: Mapping[tuple[str, str], str]  # (dimension, value) → the condition value's IRI
     rules: tuple[pruning.SparqlRule, ...]
     queries: tuple[str | Exception, ...]  # each rule contextualised for every context (pruning.contextualise), or why it cannot be
-    footprints: tuple[pruning.Footprint | None, ...]  # what each rule reads (pruning.footprint)
+    footprints: tuple[Footprint | None, ...]  # what each rule reads (kg/footprint.py)
     statements: tuple[CompiledStatement, ...]
     shapes: tuple[CompiledShape, ...]
     errors: tuple[str, ...]  # malformed shapes and requires (the rules' errors come with their evaluation)
@@ -91,13 +92,13 @@ class Setup:
         known = {r.query: (q, f) for r, q, f in zip(previous.rules, previous.queries, previous.footprints, strict=True)} \
             if previous is not None and previous.dimensions == dims and previous.value_iris == value_iris else {}
         queries: list[str | Exception] = []
-        footprints: list[pruning.Footprint | None] = []
+        footprints: list[Footprint | None] = []
         for rule in rules:
             if rule.query in known:
                 queries.append(known[rule.query][0])
                 footprints.append(known[rule.query][1])
                 continue
-            footprints.append(pruning.footprint(rule.query))
+            footprints.append(footprint(rule.query))
             try:
                 queries.append(pruning.contextualise(rule.query, dims, iris))
             except Exception as e:  # a broken rule must not take selection down; each compile reports it

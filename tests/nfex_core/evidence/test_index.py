@@ -19,7 +19,7 @@ from nfex_core.rules.engine import compile_table
 
 PREFIXES = ("PREFIX nfex: <https://w3id.org/nfex#> PREFIX rdfs: <http://www.w3.org/2000/01/rdf-schema#> "
             "PREFIX xsd: <http://www.w3.org/2001/XMLSchema#> ")
-OPS = ("report", "report", "ate", "drop-ate", "delete", "relabel", "setting")
+OPS = ("report", "report", "ate", "drop-ate", "delete", "relabel", "setting", "hub")
 
 
 def _pick(kg: KnowledgeGraph, query: str, rng: random.Random) -> dict[str, object] | None:
@@ -52,6 +52,8 @@ def _apply(kg: KnowledgeGraph, op: str, rng: random.Random, writer: ReportWriter
         if row is not None:
             kg.update(PREFIXES + f"DELETE {{ <{row['s']}> rdfs:label ?l }} INSERT {{ <{row['s']}> rdfs:label \"relabelled {rng.random()}\" }} "
                       f"WHERE {{ <{row['s']}> rdfs:label ?l }}", author="pytest")
+    elif op == "hub":  # an editor's note on an extractor every measured configuration of it points at
+        kg.update(PREFIXES + f"INSERT DATA {{ nfex:{rng.choice(['ORB', 'SIFT'])} rdfs:seeAlso <urn:nfex:test:{rng.random()}> }}", author="pytest")
     elif op == "setting":  # a measured configuration's setting takes the value of another setting of its parameter
         row = _pick(kg, """SELECT ?s ?v2 WHERE { ?m a nfex:Measurement ; sosa:usedProcedure ?cfg . ?cfg nfex:hasSetting ?s .
                              ?s nfex:parameter ?p ; nfex:value ?v . ?s2 nfex:parameter ?p ; nfex:value ?v2 FILTER (?v2 != ?v) } LIMIT 200""", rng)
@@ -106,3 +108,18 @@ def test_a_report_rereads_only_its_own_measurement_and_the_compiled_table_equals
     for c in contexts:
         assert carried.decide(c) == full.decide(c)
         assert carried.measured(c) == full.measured(c)
+
+
+def test_a_change_no_row_reads_rereads_nothing(shipped_kg: KnowledgeGraph) -> None:
+    """An extractor's ``rdfs:seeAlso`` is outside the footprint of the rows' queries (kg/footprint.py): nothing
+    is read again, though every Measurement of that extractor is two steps from it; a sequence's label is
+    inside it, and that sequence's Measurements are read again."""
+    before = ObservationIndex.read(shipped_kg)
+    _apply(shipped_kg, "hub", random.Random(0), None)  # type: ignore[arg-type]
+    carried = before.advance(shipped_kg)
+    assert carried.version == shipped_kg.version and carried.reread == 0
+    _same(carried, ObservationIndex.read(shipped_kg))
+    _apply(shipped_kg, "relabel", random.Random(0), None)  # type: ignore[arg-type]
+    again = carried.advance(shipped_kg)
+    assert again.reread > 1
+    _same(again, ObservationIndex.read(shipped_kg))

@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 from nfex_core.feedback import Feedback, ReportWriter
 from nfex_core.kg import KnowledgeGraph
 from nfex_core.kg.changes import ChangeSet, evidence_only, graph_triples
+from nfex_core.kg.footprint import footprint, reads
 from nfex_core.namespaces import NFEX, RDF
 from nfex_core.rules import pruning
 from nfex_core.rules.dsl.programs import compile_text
@@ -137,15 +138,15 @@ def test_evidence_only_tells_a_report_from_configuration(shipped_kg: KnowledgeGr
 
 def test_a_footprint_lists_what_a_rule_reads_or_gives_up() -> None:
     p = "PREFIX nfex: <https://w3id.org/nfex#> SELECT ?extractor ?reason WHERE { "
-    fp = pruning.footprint(p + "?x a nfex:A ; nfex:b/^nfex:c* ?y . { SELECT ?x (COUNT(?z) AS ?n) WHERE { ?x nfex:d ?z } GROUP BY ?x } "
+    fp = footprint(p + "?x a nfex:A ; nfex:b/^nfex:c* ?y . { SELECT ?x (COUNT(?z) AS ?n) WHERE { ?x nfex:d ?z } GROUP BY ?x } "
                            "OPTIONAL { ?x nfex:e ?w } MINUS { ?x nfex:f ?v } BIND (?x AS ?extractor) BIND ('r' AS ?reason) }")
     assert fp == {(str(RDF.type), str(NFEX.A)), *((str(NFEX[k]), None) for k in "bcdef")}
     for opaque in ("?x ?p ?y", "?x !nfex:b ?y", "?x a nfex:A FILTER NOT EXISTS { ?x nfex:b ?y }", "?x nfex:b ?y ; a ?t . GRAPH ?g { ?x nfex:c ?z }"):
-        assert pruning.footprint(p + opaque + " }") is None, opaque
-    assert pruning.footprint("not sparql") is None
-    assert pruning.reads(fp, {(str(NFEX.d), "1")}) and pruning.reads(fp, {(str(RDF.type), str(NFEX.A))})
-    assert not pruning.reads(fp, {(str(RDF.type), str(NFEX.B)), (str(NFEX.g), "x")})
-    assert pruning.reads(None, set()) and pruning.reads(fp, None)
+        assert footprint(p + opaque + " }") is None, opaque
+    assert footprint("not sparql") is None
+    assert reads(fp, {(str(NFEX.d), "1")}) and reads(fp, {(str(RDF.type), str(NFEX.A))})
+    assert not reads(fp, {(str(RDF.type), str(NFEX.B)), (str(NFEX.g), "x")})
+    assert reads(None, set()) and reads(fp, None)
 
 
 def test_a_change_a_rule_reads_runs_it_again(shipped_kg: KnowledgeGraph) -> None:
