@@ -2,7 +2,8 @@
 
 Random sequences of changes on the shipped graph — feedback reports (new Measurements, configurations, runs,
 sequences), an ATE changed or removed, a Measurement deleted, a sequence relabelled (one step from its
-Measurements), a configuration's setting changed (two steps from a configuration) — and after each batch
+Measurements), a configuration's setting changed (two steps from a configuration), an extractor's note (which no row
+reads) — and after each batch
 the carried index equals ``ObservationIndex.read``; the rule table compiled from the carried index equals a
 full compile."""
 from __future__ import annotations
