@@ -11,17 +11,18 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Collection
+from typing import Any
 
 from rdflib.namespace import RDF
 from rdflib.paths import AlternativePath, InvPath, MulPath, SequencePath
 from rdflib.plugins.sparql import prepareQuery
-from rdflib.plugins.sparql.algebra import traverse
+from rdflib.plugins.sparql.algebra import translateGroupGraphPattern, traverse
 from rdflib.term import URIRef
 
 from .validation import RDFLIB_SPARQL_PARSER
 
 Footprint = frozenset[tuple[str, str | None]]  # (predicate, object or None: any)
-_OPAQUE = {"GroupGraphPatternSub", "TriplesBlock", "ServiceGraphPattern", "Graph"}  # patterns not in algebra form
+_OPAQUE = {"TriplesBlock", "ServiceGraphPattern", "Graph"}  # patterns not in algebra form, or not of the default graph
 
 
 @functools.lru_cache(maxsize=256)
@@ -49,17 +50,26 @@ def footprint(query: str) -> Footprint | None:
             return predicates(path.path)
         return False  # a variable, a negated property set
 
-    def visit(node: object) -> None:
+    def visit(node: Any) -> Any:
         nonlocal opaque
         name = getattr(node, "name", None)
+        if name == "GroupGraphPatternSub":  # an EXISTS pattern, which rdflib leaves as parsed: translated here
+            try:
+                inner = translateGroupGraphPattern(node)
+            except Exception:
+                opaque = True
+                return node
+            traverse(inner, visitPre=visit)
+            return inner  # not None: traverse does not descend into the parsed form
         if name in _OPAQUE:
             opaque = True
         elif name == "BGP":
-            for _, p, o in node.triples:  # type: ignore[attr-defined]
+            for _, p, o in node.triples:
                 if p == RDF.type and isinstance(o, URIRef):
                     found.add((str(p), str(o)))
                 elif not predicates(p):
                     opaque = True
+        return None
 
     traverse(algebra, visitPre=visit)
     return None if opaque else frozenset(found)

@@ -24,6 +24,7 @@ the store whether an instance survives the change.
 """
 from __future__ import annotations
 
+import functools
 import threading
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
@@ -140,6 +141,47 @@ class Shapes:
 
     def backward_predicates(self) -> set[URIRef]:
         return {o for o in self.graph.objects(None, NFEX.readsBackwardAlong) if isinstance(o, URIRef)}
+
+    @functools.cached_property
+    def footprint(self) -> frozenset[tuple[str, str | None]] | None:
+        """What a shape can read beyond a focus node's own triples (kg/footprint.py pairs): every predicate of a
+        property path, a target or a property-pair constraint, those of ``nfex:readsBackwardAlong``, types and
+        the class hierarchy, and the footprint of every SPARQL constraint; None (anything) where a shape is
+        ``sh:closed`` or a constraint's query has no footprint. ``validate_change`` walks back only from the
+        subjects of changed triples that fall in it: a change of anything else can alter no other node's verdict."""
+        from .footprint import footprint
+        from .history import prefix_block
+
+        g = self.graph
+        if any(g.objects(None, SH.closed)):
+            return None
+        found: set[tuple[str, str | None]] = {(str(RDF.type), None), (str(RDFS.subClassOf), None)}
+
+        def path(node: Node, seen: set[Node]) -> None:
+            if isinstance(node, URIRef):
+                if node != RDF.nil:
+                    found.add((str(node), None))
+                return
+            if node in seen:
+                return
+            seen.add(node)
+            for p, o in g.predicate_objects(node):
+                if p in (SH.inversePath, SH.alternativePath, SH.zeroOrMorePath, SH.oneOrMorePath, SH.zeroOrOnePath,
+                         RDF.first, RDF.rest):
+                    path(o, seen)
+
+        for o in g.objects(None, SH.path):
+            path(o, set())
+        for p in (SH.targetSubjectsOf, SH.targetObjectsOf, SH.equals, SH.disjoint, SH.lessThan, SH.lessThanOrEquals,
+                  NFEX.readsBackwardAlong):
+            found |= {(str(o), None) for o in g.objects(None, p) if isinstance(o, URIRef)}
+        for p in (SH.select, SH.ask):
+            for text in g.objects(None, p):
+                fp = footprint(prefix_block() + str(text))
+                if fp is None:
+                    return None
+                found |= fp
+        return frozenset(found)
 
 
 def shapes_closure(roots: set[Node], outgoing: Callable[[set[Node]], Iterable[Triple]]) -> Shapes:
@@ -290,8 +332,12 @@ def validate_change(backend: Backend, change: ChangeSet, shapes: Shapes) -> Repo
     """Validate the candidate state on the nodes ``change`` touches (see the module docstring)."""
     view = CandidateView(backend, change)
 
+    from .footprint import reads
+
     focus: set[Node] = {s for s in change.subjects() if isinstance(s, URIRef)}
-    frontier: set[Node] = set(focus)
+    fp = shapes.footprint
+    frontier: set[Node] = {t[0] for t in change.added | change.removed
+                           if isinstance(t[0], URIRef) and reads(fp, {(str(t[1]), str(t[2]))})}
     for _ in range(BACKWARD_DEPTH):
         referrers = {t[0] for t in view.incoming(frontier)} - focus
         focus |= referrers

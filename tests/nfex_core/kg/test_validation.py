@@ -17,7 +17,7 @@ from rdflib.namespace import RDF, XSD
 
 from nfex_core.kg import ChangeSet, KnowledgeGraph, parse_rdf
 from nfex_core.kg.validation import validate_graph
-from nfex_core.namespaces import NFEX, SOSA
+from nfex_core.namespaces import NFEX, RDFS, SOSA
 
 BASE = """@prefix nfex: <https://w3id.org/nfex#> .
 nfex:base_orb a nfex:Configuration ; nfex:ofExtractor nfex:ORB ; nfex:hasSetting nfex:base_orb_sf, nfex:base_orb_nf .
@@ -97,11 +97,18 @@ def new_measurement(draw) -> ChangeSet:  # type: ignore[no-untyped-def]
     return ChangeSet.adding(triples)
 
 
+@st.composite
+def hub_note(draw) -> ChangeSet:  # type: ignore[no-untyped-def]
+    """A note on a node many others point at, along a predicate no shape reads (Shapes.footprint)."""
+    node = NFEX[draw(st.sampled_from(["ORB", "SIFT", "light_dark", "ORB_nfeatures"]))]
+    return ChangeSet.adding([(node, RDFS.seeAlso, NFEX[f"note_{draw(st.integers(0, 10**6))}"])])
+
+
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(data=st.data())
 def test_incremental_validation_agrees_with_whole_graph(graph, data) -> None:  # type: ignore[no-untyped-def]
     kg, base, shapes = graph
-    kinds = [new_configuration(), edit_parameter(base), remove_triple(base), new_condition_value(), new_measurement()]
+    kinds = [new_configuration(), edit_parameter(base), remove_triple(base), new_condition_value(), new_measurement(), hub_note()]
     changes = data.draw(st.lists(st.one_of(*kinds), min_size=1, max_size=2))
     change = ChangeSet()
     for c in changes:
@@ -137,3 +144,16 @@ def test_unchanged_graph_needs_no_validation(graph) -> None:  # type: ignore[no-
     kg, base, _ = graph
     assert kg.check(ChangeSet.adding([next(iter(base))])).conforms
     assert URIRef(NFEX.base_orb) in set(base.subjects())
+
+
+def test_a_note_no_shape_reads_validates_its_own_node_only(graph) -> None:  # type: ignore[no-untyped-def]
+    """``rdfs:seeAlso`` on ORB is outside every shape's footprint: no node pointing at ORB is validated again
+    (before, every configuration of ORB and every Measurement of those was); a range edit on a parameter is
+    inside it, and walks back to the configurations that set the parameter."""
+    kg, _, _ = graph
+    note = kg.check(ChangeSet.adding([(NFEX.ORB, RDFS.seeAlso, NFEX.note_x)]))
+    assert note.conforms and note.focus_nodes == 1
+    old = set(kg.data_graph().triples((NFEX.ORB_nfeatures, NFEX.maxValue, None)))
+    edit = kg.check(ChangeSet.of(added=[(NFEX.ORB_nfeatures, NFEX.maxValue, Literal(5))], removed=old))
+    assert edit.focus_nodes > 1
+    assert any(r.focus_node == str(NFEX.base_orb) for r in edit.violations), edit.text  # its 2000 is now out of range
