@@ -11,8 +11,8 @@ tokens) is started and measured:
 - seed: the load_validated write of the N statements;
 - cold start: from starting the process to ``/readyz`` 200 (import, open, first compile);
 - full compile: ``/readyz`` ``rule_table.compile_ms`` of the first snapshot;
-- compile per report: the same after one more report (the table carries its observations forward,
-  evidence/index.py: only what the report touched is read again; the rest of the compile is still whole);
+- compile per report: the same after one more report (the compile carries from the last table what the
+  report cannot have touched: docs/architecture.md);
 - select p50/p99 idle, and during a stream of --reports feedback reports from --threads reporters
   (bench_fleet.measure), with the reports/s of that stream;
 - a SPARQL aggregate (windows and mean ATE per extractor) through nFEX's ``/sparql``, p50, against the same

@@ -77,3 +77,21 @@ def test_logs_are_one_json_object_per_line(service: Service) -> None:
     assert requests and {"method", "path", "status", "ms", "time", "level"} <= set(requests[-1])
     # every line is JSON but what native libraries print straight to stderr (libpng's decoder errors)
     assert all(x.startswith(("{", "libpng")) for x in service.log_lines() if x.strip())
+
+
+def test_the_app_sets_the_gil_switch_interval() -> None:
+    """NFEX_SWITCH_INTERVAL_MS: a selection waits on a compile or a validation at most one switch interval per
+    switch (bench/bench_fleet.py measures what it buys); 0 leaves Python's own."""
+    import sys
+
+    from service.config import Settings
+    from service.main import create_app
+
+    before = sys.getswitchinterval()
+    try:
+        create_app(Settings(switch_interval_ms=0.7))
+        assert abs(sys.getswitchinterval() - 0.0007) < 1e-9
+        create_app(Settings(switch_interval_ms=0))
+        assert abs(sys.getswitchinterval() - 0.0007) < 1e-9
+    finally:
+        sys.setswitchinterval(before)

@@ -3,9 +3,11 @@
 replica's context-only selections (default consistency, no ``?consistency=latest``) within the bound of
 docs/service.md ("Consistency"): a poll interval (NFEX_POLL_INTERVAL_S) plus at most two compiles.
 
-Issue 17 asks for 2 s. Whether that holds depends on the compile time, which this test reads from each
-replica (``/readyz`` ``rule_table.compile_ms``) rather than assuming: the assertion is the documented bound
-in those measured terms, and the times are printed next to the 2 s target (run with ``-s``)."""
+Issue 17 asks for 2 s, and the test asserts it. Whether that holds depends on the compile time, which the test
+reads from each replica (``/readyz`` ``rule_table.compile_ms``): a report's compile is incremental
+(docs/architecture.md), ~0.1 s on the shipped graph, so the bound is a poll interval plus a fraction of a second;
+a failure prints the bound in the replica's measured compile time beside the time taken (run with ``-s`` for
+the times of a pass)."""
 from __future__ import annotations
 
 import dataclasses
@@ -131,6 +133,5 @@ def test_a_report_acknowledged_by_one_replica_is_in_every_replicas_selections(re
     for i, u in enumerate(replicas):
         print(f"replica {i}: reflected after {took[u]:.2f} s (target {TARGET_S} s); its compile of that version took "
               f"{compile_s[u]:.2f} s; poll interval {poll_s} s")
-    late = {u: (round(t, 2), round(poll_s + 2 * compile_s[u] + SLACK_S, 2)) for u, t in took.items()
-            if t > poll_s + 2 * compile_s[u] + SLACK_S}
-    assert not late, f"a report acknowledged by {a} reached these replicas later than the bound (took, bound): {late}"
+    late = {u: (round(t, 2), round(poll_s + 2 * compile_s[u] + SLACK_S, 2)) for u, t in took.items() if t > TARGET_S}
+    assert not late, f"a report acknowledged by {a} reached these replicas after {TARGET_S} s (took, the bound in their compile times): {late}"
