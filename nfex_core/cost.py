@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .evidence import Observation, admitted, read_observations, robust
+from .evidence import Aggregate, Observation, admitted, read_observations, robust
 from .evidence.index import read_settings
 from .kg.terms import py
 from .kg.vocab import ExtractorSpec, Value
@@ -275,15 +275,21 @@ def fit_cost_model(
     for o in observations:
         if o.extraction_ms is not None and o.width and o.height and o.width > 0 and o.height > 0:
             groups.setdefault((o.configuration, o.extractor, o.width, o.height), []).append(o.extraction_ms)
+    return fit_groups(extractors, settings, {k: robust(times) for k, times in groups.items()})
+
+
+def fit_groups(extractors: Mapping[str, ExtractorSpec], settings: Mapping[str, Mapping[str, Value]],
+               groups: Mapping[tuple[str, str, int, int], Aggregate]) -> CostModel:
+    """``fit_cost_model`` from the robust aggregate of each (configuration, extractor, W, H) group's extraction
+    times (the rule engine keeps them from one version to the next: evidence/groups.py)."""
     model = CostModel()
     per_x: dict[str, list[tuple[dict[str, Value], int, float, int]]] = {}
     sizes: dict[tuple[int, int], int] = {}
     per_cfg: dict[str, list[tuple[float, int]]] = {}
-    for (cfg, x, w, h), times in sorted(groups.items()):
+    for (cfg, x, w, h), agg in sorted(groups.items()):
         spec = extractors.get(x)
         if spec is None:
             continue
-        agg = robust(times)
         mean, n = agg.value, agg.windows
         if mean <= 0:
             continue

@@ -25,7 +25,7 @@ import logging
 import time
 from collections import Counter
 from collections.abc import Callable, Collection, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 from rdflib.term import URIRef
@@ -75,6 +75,8 @@ class ObservationIndex:
     uses: Mapping[str, int] = field(default_factory=dict)  # configuration → observations that used it
     reread: int = -1  # Measurements and configurations read again by the last advance (−1: a full read)
     ms: float = 0.0
+    changed: frozenset[str] | None = None  # Measurements whose row the last advance added, removed or changed (None: a full read)
+    resettled: frozenset[str] = frozenset()  # configurations whose settings it added, removed or changed
 
     @classmethod
     def read(cls, kg: KnowledgeGraph) -> ObservationIndex:
@@ -102,7 +104,7 @@ class ObservationIndex:
         t0 = time.perf_counter()
         head = kg.version if head is None else head
         if head == self.version:
-            return self
+            return replace(self, reread=0, changed=frozenset(), resettled=frozenset())
         try:
             change = (diff or kg.diff)(self.version, head)
         except Exception as e:  # a pruned or unreadable history: read everything
@@ -128,8 +130,10 @@ class ObservationIndex:
         stale = (configurations - set(self.settings)) | (configurations & touched)
         settings = {c: s for c, s in self.settings.items() if c in configurations and c not in stale}
         settings.update(read_settings(kg, stale))
+        changed = frozenset(i for i in touched if self.observations.get(i) != observations.get(i))
+        resettled = frozenset(c for c in set(self.settings) | set(settings) if self.settings.get(c) != settings.get(c))
         return ObservationIndex(head, observations, settings, {c: uses[c] for c in configurations}, len(touched),
-                                (time.perf_counter() - t0) * 1000)
+                                (time.perf_counter() - t0) * 1000, changed, resettled)
 
 
 @functools.cache

@@ -55,6 +55,19 @@ class Admission:
         return [o for o in observations if o.iri in self.admitted]
 
 
+def report_status(o: Observation, reporters: int, policy: TrustPolicy) -> tuple[bool, str]:
+    """Whether ``o`` counts, and why: ``reporters`` is the number of distinct reporters of its corroboration key
+    (unused for a Measurement that is no report)."""
+    if o.reporter is None:
+        return True, "measured by nFEX" if o.run else "written by an editor"
+    if o.accepted_by is not None:
+        return True, f"report accepted by {o.accepted_by}"
+    if reporters >= policy.min_sources:
+        return True, f"report corroborated by {reporters} reporters"
+    return False, (f"report by {o.reporter}: {reporters} of the {policy.min_sources} reporters (nfex:minSources) that must "
+                   "report this configuration under these conditions, and not accepted by an editor")
+
+
 def admit(observations: Iterable[Observation], policy: TrustPolicy) -> Admission:
     """Which observations may steer selections, and why (module docstring)."""
     items = list(observations)
@@ -64,18 +77,8 @@ def admit(observations: Iterable[Observation], policy: TrustPolicy) -> Admission
             reporters.setdefault(corroboration_key(o), set()).add(o.reporter)
     out = Admission()
     for o in items:
-        if o.reporter is None:
-            out.admitted[o.iri] = "measured by nFEX" if o.run else "written by an editor"
-        elif o.accepted_by is not None:
-            out.admitted[o.iri] = f"report accepted by {o.accepted_by}"
-        else:
-            k = len(reporters[corroboration_key(o)])
-            if k >= policy.min_sources:
-                out.admitted[o.iri] = f"report corroborated by {k} reporters"
-            else:
-                out.quarantined[o.iri] = (f"report by {o.reporter}: {k} of the {policy.min_sources} reporters "
-                                          "(nfex:minSources) that must report this configuration under these conditions, "
-                                          "and not accepted by an editor")
+        counts, reason = report_status(o, len(reporters[corroboration_key(o)]) if o.reporter is not None else 0, policy)
+        (out.admitted if counts else out.quarantined)[o.iri] = reason
     return out
 
 

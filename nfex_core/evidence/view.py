@@ -68,34 +68,38 @@ def _lit(v: float | int) -> str:
 
 def summaries(
     admitted: Iterable[Observation], extractor_iris: Mapping[str, str], value_iris: Mapping[tuple[str, str], str]
-) -> str:
-    """The ``nfex:EvidenceSummary`` nodes (module docstring) for ``admitted``, as N-Triples."""
+) -> frozenset[str]:
+    """The ``nfex:EvidenceSummary`` nodes (module docstring) for ``admitted``, as N-Triples lines."""
     groups: dict[tuple[str, tuple[str, str]], list[Observation]] = {}
     for o in admitted:
         for cond in o.conditions:
             groups.setdefault((o.extractor, cond), []).append(o)
-    lines: list[str] = []
-    for (x, cond), obs in sorted(groups.items()):
-        if x not in extractor_iris or cond not in value_iris:
-            continue
-        s = "<" + str(NFEX["evidence_" + hashlib.sha1(f"{x}|{cond[0]}|{cond[1]}".encode()).hexdigest()[:16]]) + ">"
-        facts: dict[str, str] = {
-            "ofExtractor": f"<{extractor_iris[x]}>", "underCondition": f"<{value_iris[cond]}>",
-            "windows": _lit(len(obs)), "failedWindows": _lit(sum(o.failed for o in obs)),
-            "sources": _lit(len({o.source for o in obs})),
-        }
-        ates = [o.ate for o in obs if o.ate is not None]
-        facts["ateWindows"] = _lit(len(ates))
-        if ates:
-            agg = robust(ates)
-            facts["medianAte"], facts["ateOutliers"] = _lit(agg.value), _lit(agg.outliers)
-        rates = [o.lost / o.frames for o in obs if o.lost is not None and o.frames]
-        facts["lossWindows"] = _lit(len(rates))
-        if rates:
-            facts["medianLossRate"] = _lit(robust(rates).value)
-        lines.append(f"{s} <http://www.w3.org/1999/02/22-rdf-syntax-ns#type> <{NFEX.EvidenceSummary}> .")
-        lines += [f"{s} <{NFEX[k]}> {v} ." for k, v in facts.items()]
-    return "\n".join(lines) + "\n"
+    return frozenset(line for key, obs in groups.items() for line in summary_lines(key, obs, extractor_iris, value_iris))
+
+
+def summary_lines(key: tuple[str, tuple[str, str]], obs: Sequence[Observation], extractor_iris: Mapping[str, str],
+                  value_iris: Mapping[tuple[str, str], str]) -> tuple[str, ...]:
+    """One summary node: the admitted windows ``obs`` of extractor ``key[0]`` under condition value ``key[1]``."""
+    x, cond = key
+    if x not in extractor_iris or cond not in value_iris or not obs:
+        return ()
+    s = "<" + str(NFEX["evidence_" + hashlib.sha1(f"{x}|{cond[0]}|{cond[1]}".encode()).hexdigest()[:16]]) + ">"
+    facts: dict[str, str] = {
+        "ofExtractor": f"<{extractor_iris[x]}>", "underCondition": f"<{value_iris[cond]}>",
+        "windows": _lit(len(obs)), "failedWindows": _lit(sum(o.failed for o in obs)),
+        "sources": _lit(len({o.source for o in obs})),
+    }
+    ates = [o.ate for o in obs if o.ate is not None]
+    facts["ateWindows"] = _lit(len(ates))
+    if ates:
+        agg = robust(ates)
+        facts["medianAte"], facts["ateOutliers"] = _lit(agg.value), _lit(agg.outliers)
+    rates = [o.lost / o.frames for o in obs if o.lost is not None and o.frames]
+    facts["lossWindows"] = _lit(len(rates))
+    if rates:
+        facts["medianLossRate"] = _lit(robust(rates).value)
+    return (f"{s} <http://www.w3.org/1999/02/22-rdf-syntax-ns#type> <{NFEX.EvidenceSummary}> .",
+            *(f"{s} <{NFEX[k]}> {v} ." for k, v in facts.items()))
 
 
 @dataclass
@@ -111,26 +115,24 @@ class EvidenceView:
     incremental: bool = False  # made from an earlier view (else from a dump of the stored graph)
     touched: frozenset[tuple[str, str]] | None = None  # the (predicate, object) of every triple the advance added or removed; None: unknown
 
-    def advance(self, kg: KnowledgeGraph, admission: Admission, admitted: Iterable[Observation],
-                extractor_iris: Mapping[str, str], value_iris: Mapping[tuple[str, str], str],
+    def advance(self, kg: KnowledgeGraph, admission: Admission, summary: frozenset[str],
                 diff: Diff | None = None, head: int | None = None) -> EvidenceView:
         """The view of ``head`` (default: the store's head), made from this one (module docstring), or a fresh one
         where it cannot be. ``diff``: how to read the change (default ``kg.diff``; a compile shares one with the
         observation index)."""
         head = kg.version if head is None else head
         if self.version < 0:
-            return evidence_view(kg, admission, admitted, extractor_iris, value_iris)
+            return evidence_view(kg, admission, summary)
         try:
             change = (diff or kg.diff)(self.version, head)
         except Exception as e:  # a pruned or unreadable history
             log.info("evidence view: no diff from version %d (%s); a fresh view", self.version, e)
-            return evidence_view(kg, admission, admitted, extractor_iris, value_iris)
+            return evidence_view(kg, admission, summary)
         if len(change.added) + len(change.removed) > MAX_CHANGE or any(
             not isinstance(x, URIRef | Literal) for t in (*change.added, *change.removed) for x in t
         ):
-            return evidence_view(kg, admission, admitted, extractor_iris, value_iris)
+            return evidence_view(kg, admission, summary)
         store: ox.Store = self.backend._store
-        summary = frozenset(summaries(admitted, extractor_iris, value_iris).splitlines()) - {""}
         text = ChangeText.of(change)
         _delete_data(store, sorted(self.summary - summary))
         _delete_data(store, text.removed)
@@ -191,10 +193,7 @@ def _delete_subjects(store: ox.Store, iris: Iterable[str]) -> None:
         store.update(f"DELETE {{ ?m ?p ?o }} WHERE {{ VALUES ?m {{ {values} }} ?m ?p ?o }}")
 
 
-def evidence_view(
-    kg: KnowledgeGraph, admission: Admission, admitted: Iterable[Observation],
-    extractor_iris: Mapping[str, str], value_iris: Mapping[tuple[str, str], str],
-) -> EvidenceView:
+def evidence_view(kg: KnowledgeGraph, admission: Admission, summary: frozenset[str]) -> EvidenceView:
     """A fresh view (module docstring): the stored graph dumped and loaded, less the quarantined, plus the summaries.
     The dump carries the version it read (one query reads one state of the store, and a commit writes its data
     and the head in one operation), so the view knows its version even while commits land."""
@@ -209,9 +208,8 @@ def evidence_view(
     version = max(found) if found else -1
     quarantined = frozenset(admission.quarantined)
     _delete_subjects(store, quarantined)
-    text = summaries(admitted, extractor_iris, value_iris)
-    store.load(text.encode(), format=ox.RdfFormat.N_TRIPLES)
-    return EvidenceView(version, view, quarantined, frozenset(text.splitlines()) - {""})
+    store.load("\n".join(sorted(summary)).encode() + b"\n", format=ox.RdfFormat.N_TRIPLES)
+    return EvidenceView(version, view, quarantined, summary)
 
 
 _MARK = "urn:nfex:view-version"

@@ -24,18 +24,19 @@ import functools
 import logging
 import threading
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Collection, Hashable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, TypeVar, cast
 
 from nfex_slam.motion import StepChecks
 from rdflib.term import URIRef
 
-from ..cost import BudgetTerms, CostModel, fit_cost_model
+from ..cost import BudgetTerms, CostModel, fit_groups
 from ..errors import NfexError
-from ..evidence import Admission, Observation, admit, robust
+from ..evidence import Admission, Aggregate, Observation, robust
+from ..evidence.groups import Grouped
 from ..evidence.index import Diff, ObservationIndex
-from ..evidence.view import EvidenceView, evidence_view
+from ..evidence.view import EvidenceView, evidence_view, summary_lines
 from ..kg.changes import evidence_only
 from ..kg.footprint import reads
 from ..kg.vocab import ExtractorSpec, Value
@@ -69,10 +70,10 @@ class RuleTable:
     cost: CostModel = field(default_factory=CostModel)
     budget_terms: BudgetTerms = field(default_factory=BudgetTerms)
     # extractor → configuration IRI → (its full Θ, its admitted observations); see ``measured``
-    configurations: dict[str, dict[str, tuple[dict[str, Value], list[Observation]]]] = field(default_factory=dict)
+    configurations: dict[str, dict[str, tuple[dict[str, Value], Sequence[Observation]]]] = field(default_factory=dict)
     min_measurements: int = 3
     # extractor → condition set → admitted observations (the evidence per context, ``decide``)
-    observed: dict[str, dict[frozenset[tuple[str, str]], list[Observation]]] = field(default_factory=dict)
+    observed: dict[str, dict[frozenset[tuple[str, str]], Sequence[Observation]]] = field(default_factory=dict)
     admission: Admission = field(default_factory=Admission)
     step_checks: dict[str, StepChecks] = field(default_factory=dict)  # agent → front-end checks (motion.py)
     index: ObservationIndex | None = field(default=None, repr=False)  # the observations read, for the next compile
@@ -82,6 +83,11 @@ class RuleTable:
     hits: dict[tuple[pruning.SparqlRule, str], dict[int, list[tuple[str, Citation]]]] = field(default_factory=dict, repr=False, compare=False)
     ruled: dict[int, tuple[tuple[str, Citation], ...]] = field(default_factory=dict, repr=False, compare=False)  # rule prunes per context
     plain: dict[ContextKey, Decision] = field(default_factory=dict, repr=False, compare=False)  # decisions before evidence (``decide``)
+    # the admitted observations grouped (evidence/groups.py), and what was made of each group, for the next compile
+    grouped: Grouped | None = field(default=None, repr=False, compare=False)
+    summary_lines: dict[Any, tuple[str, ...]] = field(default_factory=dict, repr=False, compare=False)
+    cost_groups: dict[Any, Aggregate] = field(default_factory=dict, repr=False, compare=False)
+    measured_groups: dict[Any, Any] = field(default_factory=dict, repr=False, compare=False)
     _measured: dict[ContextKey, dict[str, tuple[MeasuredConfiguration, ...]]] = field(default_factory=dict, repr=False)
     _evidenced: set[ContextKey] = field(default_factory=set, repr=False)
 
@@ -149,27 +155,34 @@ class RuleTable:
         return found
 
 
-def _configurations(
-    observations: list[Observation], settings: Mapping[str, Mapping[str, Value]], extractors: Mapping[str, ExtractorSpec]
-) -> dict[str, dict[str, tuple[dict[str, Value], list[Observation]]]]:
-    """Per extractor and configuration: its full Θ (resolved against the graph's ranges once, here) and
-    its observations. A configuration the current ranges no longer allow is left out."""
-    out: dict[str, dict[str, tuple[dict[str, Value], list[Observation]]]] = {}
-    invalid: set[str] = set()
-    for m in observations:
-        spec = extractors.get(m.extractor)
-        if spec is None or m.configuration in invalid:
-            continue
-        entry = out.get(m.extractor, {}).get(m.configuration)
-        if entry is None:
-            try:
-                theta = spec.resolve(settings.get(m.configuration, {}))
-            except NfexError as e:
-                log.warning("measured configuration %s left out: %s", m.configuration, e)
-                invalid.add(m.configuration)
-                continue
-            entry = out.setdefault(m.extractor, {})[m.configuration] = (theta, [])
-        entry[1].append(m)
+def _measured_configuration(key: tuple[str, str], observations: tuple[Observation, ...], settings: Mapping[str, Mapping[str, Value]],
+                            extractors: Mapping[str, ExtractorSpec]) -> tuple[dict[str, Value], tuple[Observation, ...]] | None:
+    """A measured configuration's full Θ (resolved against the graph's ranges once, here) and its admitted
+    observations; None for an extractor the graph does not have or a Θ its ranges no longer allow."""
+    x, cfg = key
+    spec = extractors.get(x)
+    if spec is None:
+        return None
+    try:
+        return spec.resolve(settings.get(cfg, {})), observations
+    except NfexError as e:
+        log.warning("measured configuration %s left out: %s", cfg, e)
+        return None
+
+
+K = TypeVar("K", bound=Hashable)
+V = TypeVar("V")
+
+
+def _per_group(groups: Mapping[K, tuple[Observation, ...]], dirty: Collection[K] | None, earlier: Mapping[K, V] | None,
+               make: Callable[[K, tuple[Observation, ...]], V], stale: Callable[[K], bool] | None = None) -> dict[K, V]:
+    """``make(key, observations)`` for every group: again only for the ``dirty`` ones (and the ``stale``) where the
+    ``earlier`` results of the same groups are at hand (evidence/groups.py)."""
+    if earlier is None or dirty is None:
+        return {k: make(k, obs) for k, obs in groups.items()}
+    again = set(dirty) | ({k for k in groups if stale(k)} if stale is not None else set())
+    out = {k: v for k, v in earlier.items() if k in groups and k not in again}
+    out.update((k, make(k, groups[k])) for k in again if k in groups)
     return out
 
 
@@ -185,16 +198,23 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     setup = _carried_setup(kg, previous, version, diff, absent) or Setup.read(kg, absent, previous.setup if previous is not None else None)
     vocab, dims = setup.vocab, setup.dimensions
     index = previous.index.advance(kg, diff, version) if previous is not None and previous.index is not None else ObservationIndex.read(kg)
-    observations = index.all()
-    admission = admit(observations, setup.policy)
-    evidence = admission.select(observations)
-    value_iris = setup.value_iris
+    grouped = previous.grouped.advance(previous.index.observations, index.observations, index.changed, setup.policy) \
+        if previous is not None and previous.grouped is not None and previous.index is not None and index.changed is not None \
+        and previous.setup is not None and previous.setup.policy == setup.policy \
+        else Grouped.of(index.observations.values(), setup.policy)
+    admission = grouped.admission
     extractor_iris = {x: str(e.iri) for x, e in vocab.extractors.items()}
+    alike = previous is not None and previous.setup is not None and _extractor_names(previous.setup) == _extractor_names(setup) \
+        and previous.setup.value_iris == setup.value_iris
+    dirty = grouped.dirty or {}
+    lines = _per_group(grouped.groups["summary"], dirty.get("summary"), previous.summary_lines if alike and previous else None,
+                       lambda k, obs: summary_lines(k, obs, extractor_iris, setup.value_iris))
+    summary = frozenset(line for group in lines.values() for line in group)
     carried = previous.take_view() if previous is not None and setup.rules else None
     made: EvidenceView | None = None
     if setup.rules:
-        made = carried.advance(kg, admission, evidence, extractor_iris, value_iris, diff, version) if carried is not None \
-            else evidence_view(kg, admission, evidence, extractor_iris, value_iris)
+        made = carried.advance(kg, admission, summary, diff, version) if carried is not None \
+            else evidence_view(kg, admission, summary)
     view = made.backend if made is not None else kg.backend
     errors: list[str] = []
     ruled: dict[int, list[tuple[str, Citation]]] = {}
@@ -237,18 +257,30 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
             plain[key] = setup.decision(i, mine)
             rebuilt += 1
     settings = index.measured_settings()
-    cost = fit_cost_model(kg, vocab.extractors, settings, evidence)
-    configurations = _configurations(evidence, settings, vocab.extractors) if setup.measured_rule else {}
-    observed: dict[str, dict[frozenset[tuple[str, str]], list[Observation]]] = {}
-    for o in evidence:
-        observed.setdefault(o.extractor, {}).setdefault(o.conditions, []).append(o)
+    aggregates = _per_group(grouped.groups["cost"], dirty.get("cost"), previous.cost_groups if previous is not None else None,
+                            lambda k, obs: robust([o.extraction_ms for o in obs if o.extraction_ms is not None]))
+    cost = fit_groups(vocab.extractors, settings, aggregates)
+    measured = _per_group(grouped.groups["measured"], dirty.get("measured"),
+                          previous.measured_groups if same and previous is not None else None,
+                          lambda k, obs: _measured_configuration(k, obs, settings, vocab.extractors),
+                          lambda k: k[1] in index.resettled)
+    configurations: dict[str, dict[str, tuple[dict[str, Value], Sequence[Observation]]]] = {}
+    if setup.measured_rule:
+        for (x, cfg), found in measured.items():
+            if found is not None:
+                configurations.setdefault(x, {})[cfg] = found
+    observed: dict[str, dict[frozenset[tuple[str, str]], Sequence[Observation]]] = {}
+    for group, obs in grouped.groups["observed"].items():
+        extractor, conditions = cast(tuple[str, frozenset[tuple[str, str]]], group)
+        observed.setdefault(extractor, {})[conditions] = obs
     ms = (time.perf_counter() - t0) * 1000
     log.info("compiled %d contexts (%d rebuilt, configuration %s), %d rules, %d statements at graph version %d in %.0f ms "
              "(observations: %s in %.0f ms)", len(setup.keys), rebuilt, "carried" if same else "read", len(setup.rules),
              len(setup.statements), version, ms, "read in full" if index.reread < 0 else f"{index.reread} re-read", index.ms)
     return RuleTable(version, dims, dict(plain), list(setup.rules), list(setup.statements), errors, ms, cost, setup.budget_terms,
                      configurations, setup.min_measurements, observed, admission, step_checks=dict(setup.step_checks),
-                     index=index, view=made, setup=setup, hits=hits, ruled={i: tuple(r) for i, r in ruled.items()}, plain=plain)
+                     index=index, view=made, setup=setup, hits=hits, ruled={i: tuple(r) for i, r in ruled.items()}, plain=plain,
+                     grouped=grouped, summary_lines=lines, cost_groups=aggregates, measured_groups=measured)
 
 
 def _extractor_names(setup: Setup) -> dict[str, str]:

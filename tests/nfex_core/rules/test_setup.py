@@ -77,15 +77,22 @@ def _report(writer: ReportWriter, reporter: str, extractor: str = "ORB") -> None
                           frames=10, ate_rmse=40.0, extraction_ms=4.0, width=1241, height=376, tracking_lost=9))
 
 
-def test_a_report_keeps_the_configuration_stage_and_a_statement_change_reads_it_again(shipped_kg: KnowledgeGraph) -> None:
-    first = compile_table(shipped_kg)
-    writer = ReportWriter(shipped_kg, max_items=1)
+def _reports(kg: KnowledgeGraph, *reporters: str) -> None:
+    writer = ReportWriter(kg, max_items=1)
     try:
-        _report(writer, "r1")
+        for reporter in reporters:
+            _report(writer, reporter)
     finally:
         writer.close()
+
+
+def test_a_report_keeps_the_configuration_stage_and_a_statement_change_reads_it_again(shipped_kg: KnowledgeGraph) -> None:
+    first = compile_table(shipped_kg)
+    _reports(shipped_kg, "r1")
     after_report = compile_table(shipped_kg, first)
     assert after_report.setup is first.setup
+    assert after_report.grouped is not None and after_report.grouped.dirty is not None, "the grouping was carried, not redone"
+    assert sum(map(len, after_report.grouped.dirty.values())) <= 12  # the groups of one report, not all
     row = shipped_kg.select("SELECT ?s WHERE { ?s nfex:inProgram ?p }").rows[0]
     shipped_kg.update(PREFIXES + f"DELETE WHERE {{ <{row['s']}> ?p ?o }}", author="pytest")
     after_edit = compile_table(shipped_kg, after_report)
@@ -120,11 +127,7 @@ def test_a_quarantined_report_runs_no_measured_rule_and_a_corroborated_one_runs_
 
 def test_evidence_only_tells_a_report_from_configuration(shipped_kg: KnowledgeGraph) -> None:
     v0 = shipped_kg.version
-    writer = ReportWriter(shipped_kg, max_items=1)
-    try:
-        _report(writer, "r1")
-    finally:
-        writer.close()
+    _reports(shipped_kg, "r1")
     assert evidence_only(shipped_kg.backend, shipped_kg.diff(v0, shipped_kg.version))
     rule = shipped_kg.select("SELECT ?r WHERE { ?r a nfex:SparqlRule }").rows[0]["r"]
     assert not evidence_only(shipped_kg.backend, ChangeSet.adding([(rule, NFEX.enabled, NFEX.x)]))
@@ -215,11 +218,7 @@ def test_types_read_after_later_commits_are_taken_back_to_the_changes_version(sh
     """``evidence_only``'s ``later``: a compile pinned to version v reads the types after commits that landed
     since; a Measurement retyped after v must be judged by its types at v."""
     v0 = shipped_kg.version
-    writer = ReportWriter(shipped_kg, max_items=1)
-    try:
-        _report(writer, "r1")
-    finally:
-        writer.close()
+    _reports(shipped_kg, "r1")
     v1 = shipped_kg.version
     m = next(t[0] for t in shipped_kg.diff(v0, v1).added if t[1] == RDF.type and t[2] == NFEX.Measurement)
     shipped_kg.commit(ChangeSet.adding([(m, RDF.type, NFEX.Curiosity)]), author="pytest")  # a class of no evidence

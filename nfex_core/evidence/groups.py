@@ -1,0 +1,134 @@
+"""The admitted observations, grouped as a compile reads them, carried from one graph version to the next.
+
+A compile (rules/engine.py) reads the admitted observations (trust.py) four ways:
+
+    summary   (extractor, condition value)            the evidence summaries the SPARQL rules read (view.py)
+    observed  (extractor, set of condition values)    the evidence per context (``RuleTable.observed``)
+    measured  (extractor, configuration)              the measured configurations (``RuleTable.configurations``)
+    cost      (configuration, extractor, W, H)        the cost model's groups, with an extraction time (cost.py)
+
+Each group holds its observations sorted by IRI, as a full read gives them. ``Grouped.of`` groups them all;
+``Grouped.advance`` takes the index's Measurements whose row changed (evidence/index.py ``changed``),
+re-admits the reports that share a corroboration key with one of them (the only reports whose admission can
+have changed: trust.py), and touches only the groups those observations were in or are in now — so a report
+costs the groups it lands in, not a pass over every Measurement. ``dirty`` names the groups touched, for the
+readers that keep an aggregate per group. tests/nfex_core/rules/test_setup.py compares a carried compile with
+a full one after random changes.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Collection, Hashable, Iterable, Mapping
+from dataclasses import dataclass, field
+
+from .observations import Observation
+from .trust import Admission, TrustPolicy, admit, corroboration_key, report_status
+
+Groups = Mapping[Hashable, tuple[Observation, ...]]
+
+
+def _summary(o: Observation) -> list[Hashable]:
+    return [(o.extractor, cond) for cond in o.conditions]
+
+
+def _observed(o: Observation) -> list[Hashable]:
+    return [(o.extractor, o.conditions)]
+
+
+def _measured(o: Observation) -> list[Hashable]:
+    return [(o.extractor, o.configuration)]
+
+
+def _cost(o: Observation) -> list[Hashable]:
+    timed = o.extraction_ms is not None and o.width and o.height and o.width > 0 and o.height > 0
+    return [(o.configuration, o.extractor, o.width, o.height)] if timed else []
+
+
+READERS: dict[str, Callable[[Observation], list[Hashable]]] = {
+    "summary": _summary, "observed": _observed, "measured": _measured, "cost": _cost}
+
+
+@dataclass(frozen=True)
+class Grouped:
+    """The admission of every observation, and the admitted ones grouped per reader (module docstring)."""
+
+    admission: Admission
+    groups: Mapping[str, Groups]  # reader → key → observations, sorted by IRI
+    reports: Mapping[tuple[str, frozenset[tuple[str, str]]], frozenset[str]]  # corroboration key → report IRIs
+    dirty: Mapping[str, frozenset[Hashable]] | None = None  # reader → keys touched by the last advance; None: all
+    # reader → key → IRI → observation; inner dicts are copied before a change (a grouping is shared by two tables)
+    _members: Mapping[str, Mapping[Hashable, dict[str, Observation]]] = field(default_factory=dict, repr=False)
+
+    @classmethod
+    def of(cls, observations: Iterable[Observation], policy: TrustPolicy) -> Grouped:
+        items = sorted(observations, key=lambda o: o.iri)
+        admission = admit(items, policy)
+        members: dict[str, dict[Hashable, dict[str, Observation]]] = {r: {} for r in READERS}
+        for o in items:
+            if o.iri in admission.admitted:
+                for reader, keys in READERS.items():
+                    for k in keys(o):
+                        members[reader].setdefault(k, {})[o.iri] = o
+        reports: dict[tuple[str, frozenset[tuple[str, str]]], set[str]] = {}
+        for o in items:
+            if o.reporter is not None:
+                reports.setdefault(corroboration_key(o), set()).add(o.iri)
+        groups = {r: {k: tuple(m.values()) for k, m in g.items()} for r, g in members.items()}  # inserted in IRI order
+        return cls(admission, groups, {k: frozenset(v) for k, v in reports.items()}, None, members)
+
+    def admitted(self) -> list[Observation]:
+        """The admitted observations, sorted by IRI."""
+        return sorted((o for obs in self.groups["observed"].values() for o in obs), key=lambda o: o.iri)
+
+    def advance(self, before: Mapping[str, Observation], after: Mapping[str, Observation], changed: Collection[str],
+                policy: TrustPolicy) -> Grouped:
+        """The grouping of ``after`` (the index's observations now), given this one of ``before`` and the IRIs
+        whose row was added, removed or changed; the policy must be the one this grouping was made with."""
+        reports = dict(self.reports)
+        keys: set[tuple[str, frozenset[tuple[str, str]]]] = set()
+        for iri in changed:
+            for side, o in ((-1, before.get(iri)), (1, after.get(iri))):
+                if o is None or o.reporter is None:
+                    continue
+                k = corroboration_key(o)
+                keys.add(k)
+                reports[k] = reports.get(k, frozenset()) - {iri} if side < 0 else reports.get(k, frozenset()) | {iri}
+        for k in keys:
+            if not reports.get(k):
+                reports.pop(k, None)
+        admitted, quarantined = dict(self.admission.admitted), dict(self.admission.quarantined)
+        was = set(admitted)
+        recheck = set(changed) | {iri for k in keys for iri in reports.get(k, ())}
+        for iri in recheck:
+            admitted.pop(iri, None)
+            quarantined.pop(iri, None)
+            o = after.get(iri)
+            if o is None:
+                continue
+            reporters = len({after[i].reporter for i in reports.get(corroboration_key(o), ())}) if o.reporter else 0
+            counts, reason = report_status(o, reporters, policy)
+            (admitted if counts else quarantined)[iri] = reason
+        moved = {iri for iri in recheck if (iri in was) != (iri in admitted) or iri in changed}
+        members: dict[str, dict[Hashable, dict[str, Observation]]] = {r: dict(g) for r, g in self._members.items()}
+        dirty: dict[str, set[Hashable]] = {r: set() for r in READERS}
+        for iri in moved:
+            for o, add in ((before.get(iri), False), (after.get(iri), True)):
+                if o is None or not (iri in admitted if add else iri in was):
+                    continue
+                for reader, of in READERS.items():
+                    for g in of(o):
+                        if g not in dirty[reader]:
+                            dirty[reader].add(g)
+                            members[reader][g] = dict(members[reader].get(g, {}))
+                        if add:
+                            members[reader][g][iri] = o
+                        else:
+                            members[reader][g].pop(iri, None)
+        groups = {r: dict(g) for r, g in self.groups.items()}
+        for reader, touched in dirty.items():
+            for g in touched:
+                if members[reader][g]:
+                    groups[reader][g] = tuple(members[reader][g][i] for i in sorted(members[reader][g]))
+                else:
+                    members[reader].pop(g)
+                    groups[reader].pop(g, None)
+        return Grouped(Admission(admitted, quarantined), groups, reports, {r: frozenset(k) for r, k in dirty.items()}, members)
