@@ -1,5 +1,6 @@
-"""Evidence: the graph's Measurements as readers use them — read once (observations), admitted by the
-trust rule (trust), aggregated robustly (aggregate), and viewed by the SPARQL pruning rules (view)."""
+"""Evidence: the graph's Measurements as readers use them — read once (observations) and carried from version
+to version (index), admitted by the trust rule (trust), grouped per reader (groups), aggregated robustly
+(aggregate), and viewed by the SPARQL pruning rules (view)."""
 from __future__ import annotations
 
 from .aggregate import ROBUST, Aggregate, robust

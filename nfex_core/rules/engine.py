@@ -5,13 +5,16 @@ evaluates every SPARQL pruning rule once for all contexts (one query per rule, s
 every DSL statement and context shape (shapes.py) for all contexts, and stores a ``Decision`` per context: the candidates, the pruned
 extractors with the rules that pruned them, the parameter factors f_kj, the metric weights h_x, the
 preference bonuses, the context shapes in force (``require`` statements are compiled to them), and the measured evidence per extractor. A
-request then pays one dictionary lookup. Measurements are read once per compile (evidence/observations.py)
+request then pays one dictionary lookup. Measurements are read once (evidence/observations.py)
 and only those the trust rule admits count (evidence/trust.py): the SPARQL rules run on the evidence view
 (evidence/view.py), the evidence per extractor, the measured configurations and the cost model use the
 admitted observations, each aggregated with the median (evidence/aggregate.py). The measured configurations of each extractor under a context
 (``RuleTable.measured``: the graph's answer to "which Θ of α had the lowest median ATE here?") are ranked
-on a context's first request and kept. ``compile_table`` runs again when the graph version changes.
-The same step fits the cost model (nfex_core/cost.py) and reads the budget terms, so a request's
+on a context's first request and kept. ``compile_table`` runs again when the graph version changes, and
+carries from the last table whatever the change cannot have touched (docs/architecture.md): the
+configuration stage (setup.py), the observations (evidence/index.py) and their grouping (evidence/groups.py),
+the rules' view (evidence/view.py), each rule's hits outside its footprint (kg/footprint.py), and each
+context's decision whose rule prunes are the same. The same step fits the cost model (nfex_core/cost.py) and reads the budget terms, so a request's
 budget check (advisor/budget.py) costs arithmetic only.
 
 Composition (paper §IV-A): several ``adjust`` statements on one parameter multiply
