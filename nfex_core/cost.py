@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .evidence import Aggregate, Observation, admitted, read_observations, robust
+from .evidence.groups import cost_group
 from .evidence.index import read_settings
 from .kg.terms import py
 from .kg.vocab import ExtractorSpec, Value
@@ -273,8 +274,9 @@ def fit_cost_model(
         observations = admitted(kg, read_observations(kg))
     groups: dict[tuple[str, str, int, int], list[float]] = {}
     for o in observations:
-        if o.extraction_ms is not None and o.width and o.height and o.width > 0 and o.height > 0:
-            groups.setdefault((o.configuration, o.extractor, o.width, o.height), []).append(o.extraction_ms)
+        group = cost_group(o)
+        if group is not None and o.extraction_ms is not None:
+            groups.setdefault(group, []).append(o.extraction_ms)
     return fit_groups(extractors, settings, {k: robust(times) for k, times in groups.items()})
 
 

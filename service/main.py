@@ -65,7 +65,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or Settings()
     os.environ.setdefault("OPENCV_LOG_LEVEL", "ERROR")  # OpenCV's own warnings bypass Python logging
     setup_logging(settings.log_level, settings.log_json)
-    if settings.switch_interval_ms > 0:  # process-wide; bench/bench_fleet.py: select p99 under a report stream 69–80 → 30 ms
+    if settings.switch_interval_ms > 0:  # process-wide; what it buys: bench/bench_fleet.py (docs/service.md)
         sys.setswitchinterval(settings.switch_interval_ms / 1000)
     metrics = Metrics()
 

@@ -38,9 +38,17 @@ def _measured(o: Observation) -> list[Hashable]:
     return [(o.extractor, o.configuration)]
 
 
+def cost_group(o: Observation) -> tuple[str, str, int, int] | None:
+    """The cost model's group of ``o`` (cost.py): its configuration, extractor and frame size, when it has an
+    extraction time and a frame size; else None."""
+    if o.extraction_ms is None or not o.width or not o.height or o.width <= 0 or o.height <= 0:
+        return None
+    return (o.configuration, o.extractor, o.width, o.height)
+
+
 def _cost(o: Observation) -> list[Hashable]:
-    timed = o.extraction_ms is not None and o.width and o.height and o.width > 0 and o.height > 0
-    return [(o.configuration, o.extractor, o.width, o.height)] if timed else []
+    group = cost_group(o)
+    return [group] if group is not None else []
 
 
 READERS: dict[str, Callable[[Observation], list[Hashable]]] = {
@@ -74,10 +82,6 @@ class Grouped:
                 reports.setdefault(corroboration_key(o), set()).add(o.iri)
         groups = {r: {k: tuple(m.values()) for k, m in g.items()} for r, g in members.items()}  # inserted in IRI order
         return cls(admission, groups, {k: frozenset(v) for k, v in reports.items()}, None, members)
-
-    def admitted(self) -> list[Observation]:
-        """The admitted observations, sorted by IRI."""
-        return sorted((o for obs in self.groups["observed"].values() for o in obs), key=lambda o: o.iri)
 
     def advance(self, before: Mapping[str, Observation], after: Mapping[str, Observation], changed: Collection[str],
                 policy: TrustPolicy) -> Grouped:

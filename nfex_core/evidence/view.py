@@ -66,17 +66,6 @@ def _lit(v: float | int) -> str:
     return f'"{int(v)}"^^<{_XSD}integer>' if isinstance(v, int) else f'"{float(v)!r}"^^<{_XSD}double>'
 
 
-def summaries(
-    admitted: Iterable[Observation], extractor_iris: Mapping[str, str], value_iris: Mapping[tuple[str, str], str]
-) -> frozenset[str]:
-    """The ``nfex:EvidenceSummary`` nodes (module docstring) for ``admitted``, as N-Triples lines."""
-    groups: dict[tuple[str, tuple[str, str]], list[Observation]] = {}
-    for o in admitted:
-        for cond in o.conditions:
-            groups.setdefault((o.extractor, cond), []).append(o)
-    return frozenset(line for key, obs in groups.items() for line in summary_lines(key, obs, extractor_iris, value_iris))
-
-
 def summary_lines(key: tuple[str, tuple[str, str]], obs: Sequence[Observation], extractor_iris: Mapping[str, str],
                   value_iris: Mapping[tuple[str, str], str]) -> tuple[str, ...]:
     """One summary node: the admitted windows ``obs`` of extractor ``key[0]`` under condition value ``key[1]``."""

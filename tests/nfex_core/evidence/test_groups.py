@@ -59,5 +59,4 @@ def test_a_carried_grouping_equals_a_fresh_one(data: st.DataObject, minimum: int
             moved = {k for k in set(grouped.groups[reader]) | set(fresh.groups[reader])
                      if grouped.groups[reader].get(k) != fresh.groups[reader].get(k)}
             assert carried.dirty is not None and moved <= carried.dirty[reader]
-        assert carried.admitted() == fresh.admitted()
         before, grouped = after, carried

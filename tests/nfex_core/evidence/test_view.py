@@ -12,8 +12,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from nfex_core.evidence import TrustPolicy, admit
+from nfex_core.evidence.groups import Grouped
 from nfex_core.evidence.index import ObservationIndex
-from nfex_core.evidence.view import EvidenceView, evidence_view, summaries
+from nfex_core.evidence.view import EvidenceView, evidence_view, summary_lines
 from nfex_core.feedback import Feedback, ReportWriter
 from nfex_core.kg import KnowledgeGraph
 from nfex_core.rules.engine import compile_table
@@ -27,7 +28,9 @@ def _view(kg: KnowledgeGraph, previous: EvidenceView | None = None) -> EvidenceV
     admission = admit(observations, TrustPolicy.load(kg))
     values = {(d, v): str(s.iri) for d, dim in vocab.dimensions.items() for v, s in dim.values.items()}
     extractors = {x: str(e.iri) for x, e in vocab.extractors.items()}
-    args = (kg, admission, summaries(admission.select(observations), extractors, values))
+    groups = Grouped.of(observations, TrustPolicy.load(kg)).groups["summary"]
+    summary = frozenset(line for key, obs in groups.items() for line in summary_lines(key, obs, extractors, values))  # type: ignore[arg-type]
+    args = (kg, admission, summary)
     return previous.advance(*args) if previous is not None else evidence_view(*args)
 
 
