@@ -18,9 +18,7 @@ and the code). A store that already holds knowledge receives the difference thro
 """
 from __future__ import annotations
 
-from collections.abc import Callable
-
-import rdflib
+from collections.abc import Callable, Iterable
 
 from .config import Settings
 from .errors import Conflict, PreconditionFailed
@@ -34,7 +32,7 @@ from .seed_content import seed_content
 
 SEED_AUTHOR = "nfex seed"
 SEED_MESSAGE = "seed from ontology/ and rules/"
-SeedSource = Callable[[Settings], rdflib.Graph]
+SeedSource = Callable[[Settings], Iterable[Triple]]  # a graph: an rdflib Graph or its triples
 SEED_SOURCES: dict[str, SeedSource] = {
     "ontology": ontology_graph,
     "shapes": shapes_graph,
@@ -43,12 +41,12 @@ SEED_SOURCES: dict[str, SeedSource] = {
 }
 
 
-def seed_graph(settings: Settings) -> rdflib.Graph:
-    """The union of every seed source for ``settings.home``."""
-    g = rdflib.Graph()
+def seed_graph(settings: Settings) -> set[Triple]:
+    """The union of every seed source for ``settings.home`` (blank nodes as parsed: each source's own)."""
+    triples: set[Triple] = set()
     for source in SEED_SOURCES.values():
-        g += source(settings)
-    return g
+        triples.update(source(settings))
+    return triples
 
 
 def seed_triples(settings: Settings) -> frozenset[Triple]:

@@ -1,6 +1,6 @@
 """The seed as N-Triples, computed once per content and then read from a cache.
 
-Computing the seed (``knowledge.seed_graph``: rdflib parsing ontology/ with its 1.2 MB of measurements,
+Computing the seed (``knowledge.seed_graph``: parsing ontology/ with its 1.2 MB of measurements,
 compiling the DSL programs, skolemising blank nodes) takes seconds; reading its result back takes a
 fraction of one. The result depends only on the files and the code that read them, so it is kept in
 ``NFEX_SEED_CACHE`` (default ``$XDG_CACHE_HOME/nfex/seed``) as ``<digest>.nt``, sorted N-Triples, where
@@ -20,23 +20,25 @@ import logging
 import os
 import re
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
 import pyoxigraph as ox
 import rdflib
+from rdflib.term import Node, URIRef
 
 from .config import Settings
 from .kg.changes import graph_triples
 from .kg.history import ChangeText
-from .kg.terms import Triple, from_oxigraph, triple_n3, triple_nt
+from .kg.terms import Triple, from_oxigraph, nt, triple_n3, triple_nt
 from .rules.dsl.parser import GRAMMAR
 
 log = logging.getLogger("nfex.seed")
 PACKAGE = Path(__file__).resolve().parent
 FORMAT = b"nfex-seed-1"  # bump when the file's layout or meaning changes
 KEEP = 4  # seeds kept in the cache folder
+PROBE = URIRef("urn:nfex:seed-probe")  # the other terms of round_trips' lines
 RELATIVE_IRI = re.compile(rb"<(?![A-Za-z][A-Za-z0-9+.\-]*:)[^<>\s\"{}|^`\\]*>")  # an IRI without a scheme
 
 
@@ -63,6 +65,18 @@ def parse_lines(lines: tuple[str, ...] | list[str]) -> frozenset[Triple]:
         (from_oxigraph(q.subject), from_oxigraph(q.predicate), from_oxigraph(q.object))
         for q in ox.parse(data, format=ox.RdfFormat.N_TRIPLES)
     )
+
+
+def round_trips(terms: set[Node]) -> bool:
+    """Whether N-Triples carries each of ``terms`` unchanged (so lines of them read back to the same triples):
+    each term is written once, in a line of its own, and read back — a line is its terms' texts side by side."""
+    probe = f"<{PROBE}>"
+    lines = [f"{nt(t)} {probe} {probe} ." if isinstance(t, URIRef) else f"{probe} {probe} {nt(t)} ." for t in terms]
+    try:
+        back = parse_lines(lines)
+    except (SyntaxError, ValueError):
+        return False
+    return {s if s != PROBE else o for s, _, o in back} == terms
 
 
 def _files(root: Path, pattern: str) -> list[Path]:
@@ -93,7 +107,7 @@ def digest(settings: Settings) -> str:
     return h.hexdigest()
 
 
-def seed_content(settings: Settings, compute: Callable[[Settings], rdflib.Graph]) -> SeedContent:
+def seed_content(settings: Settings, compute: Callable[[Settings], Iterable[Triple]]) -> SeedContent:
     """The triples of ``compute(settings)`` (the seed graph) as N-Triples, from the cache when it has them."""
     key = digest(settings)
     path = settings.seed_cache / f"{key}.nt"
@@ -106,11 +120,7 @@ def seed_content(settings: Settings, compute: Callable[[Settings], rdflib.Graph]
         return SeedContent(tuple(line for line in text.split("\n") if line), key, cached=True)
     triples = graph_triples(compute(settings))
     lines = tuple(sorted(triple_nt(t) for t in triples))
-    try:
-        same = parse_lines(lines) == triples
-    except (SyntaxError, ValueError):
-        same = False
-    if not same:  # a term N-Triples cannot carry as rdflib holds it: write it as commit does, and cache nothing
+    if not round_trips({term for t in triples for term in t}):  # a term N-Triples cannot carry as rdflib holds it: write it as commit does, and cache nothing
         log.warning("the seed does not read back from N-Triples unchanged; it is not cached")
         return SeedContent(tuple(sorted(triple_n3(t) for t in triples)), key, computed=triples)
     _store(path, lines)

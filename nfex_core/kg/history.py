@@ -153,6 +153,13 @@ def commit_update(
         where = guard
     change_sets = [f"GRAPH {n3(graph)} {{\n{body}\n}}" for graph, body in ((added_graph(new), added), (removed_graph(new), removed))
                    if body.strip()]
+    if backend.exclusive and not staged:
+        # one process owns the store and read the head under its write_lock: the guard holds by construction,
+        # and DATA operations skip instantiating a template per solution (a seed's 68k: 1.7 s → about 1 s)
+        return "\n".join([
+            f"{prefix_block()}DELETE DATA {{", backend.graph_block(removed), f"GRAPH {n3(META)} {{ {n3(HEAD)} nfex:versionNumber {head} }}",
+            "} ;\nINSERT DATA {", backend.graph_block(added), *change_sets, f"GRAPH {n3(META)} {{\n{meta_block}\n}}", "}",
+        ] + [f";\n{op}" for op in tail])
     return "\n".join([
         f"{prefix_block()}DELETE {{", backend.graph_block(removed), guard,
         "} INSERT {", backend.graph_block(added), *change_sets, f"GRAPH {n3(META)} {{\n{meta_block}\n}}",

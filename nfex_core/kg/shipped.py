@@ -7,26 +7,18 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import rdflib
+import pyoxigraph as ox
 
 from ..config import Settings
 from ..errors import DataMissing
 from .backends import EmbeddedBackend
-from .changes import graph_triples, read_rdf_file
+from .changes import read_turtle, read_turtle_triples
 from .store import KnowledgeGraph
-from .terms import triple_n3
+from .terms import Triple
 from .vocab import Vocabulary
 
 
-def turtle_files(folder: Path) -> rdflib.Graph:
-    """Every ``*.ttl`` below ``folder`` as one graph."""
-    g = rdflib.Graph()
-    for path in sorted(folder.rglob("*.ttl")):
-        g += read_rdf_file(path)
-    return g
-
-
-def ontology_graph(settings: Settings) -> rdflib.Graph:
+def ontology_files(settings: Settings) -> list[Path]:
     """ontology/*.ttl and the generated measurements under ontology/measurements/."""
     if not any(settings.ontology_dir.glob("*.ttl")):
         # a store seeded from nothing answers "unknown condition dimension … known: (none)" forever after
@@ -34,18 +26,26 @@ def ontology_graph(settings: Settings) -> rdflib.Graph:
             f"no ontology to seed from: {settings.ontology_dir} holds no *.ttl; set NFEX_HOME to a folder "
             "holding ontology/ and rules/ (an installed nFEX ships its own)"
         )
-    return turtle_files(settings.ontology_dir)
+    return sorted(settings.ontology_dir.rglob("*.ttl"))
 
 
-def shapes_graph(settings: Settings) -> rdflib.Graph:
+def ontology_graph(settings: Settings) -> list[Triple]:
+    """The triples of ``ontology_files``."""
+    return [t for path in ontology_files(settings) for t in read_turtle_triples(path)]
+
+
+def shapes_graph(settings: Settings) -> list[Triple]:
     """rules/shapes/*.ttl: integrity, DSL and context shapes."""
-    return turtle_files(settings.rules_dir / "shapes")
+    return [t for path in sorted((settings.rules_dir / "shapes").rglob("*.ttl")) for t in read_turtle_triples(path)]
 
 
 def ontology_vocabulary(settings: Settings) -> Vocabulary:
-    """The Vocabulary of the repository's ontology files, read into an in-memory store."""
-    kg = KnowledgeGraph(EmbeddedBackend(None), settings)
-    triples = list(graph_triples(ontology_graph(settings)))
-    for i in range(0, len(triples), 2000):
-        kg.backend.update("INSERT DATA {\n" + "\n".join(triple_n3(t) for t in triples[i : i + 2000]) + "\n}")
+    """The Vocabulary of the repository's ontology files, read into an in-memory store.
+
+    The files go in as Oxigraph parses them, blank nodes unskolemised: the vocabulary reads named nodes
+    only (``tests/nfex_core/kg/test_shipped.py`` compares it with the seeded store's)."""
+    store = ox.Store()
+    for path in ontology_files(settings):
+        store.extend(read_turtle(path))
+    kg = KnowledgeGraph(EmbeddedBackend.of_store(store), settings)
     return Vocabulary.load(kg)

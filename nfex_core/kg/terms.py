@@ -21,6 +21,7 @@ from rdflib.term import BNode, Literal, Node, URIRef
 from ..namespaces import GENID
 
 Triple = tuple[Node, Node, Node]
+XSD_STRING = ox.NamedNode(str(XSD.string))
 
 
 _INTEGERS = {XSD.integer, XSD.int, XSD.long, XSD.short, XSD.byte, XSD.nonNegativeInteger, XSD.positiveInteger,
@@ -61,7 +62,9 @@ def plain(lit: Literal) -> Literal:
     return lit
 
 
-def from_oxigraph(term: object) -> Node:
+def from_oxigraph(term: object, *, as_written: bool = False) -> Node:
+    """An Oxigraph term as rdflib's; a literal ``plain``, or ``as_written`` (as rdflib's parsers give it:
+    skolemising hashes a blank node's neighbours as written, so a file must read the same either way)."""
     if isinstance(term, ox.NamedNode):
         return URIRef(term.value)
     if isinstance(term, ox.BlankNode):
@@ -69,6 +72,8 @@ def from_oxigraph(term: object) -> Node:
     if isinstance(term, ox.Literal):
         if term.language:
             return Literal(term.value, lang=term.language)
+        if as_written:
+            return Literal(term.value) if term.datatype == XSD_STRING else Literal(term.value, datatype=URIRef(term.datatype.value))
         return plain(Literal(term.value, datatype=URIRef(term.datatype.value)))
     raise TypeError(f"unsupported term {term!r}")
 
@@ -136,7 +141,7 @@ def normalise(graph: Iterable[Triple]) -> set[Triple]:
     return out
 
 
-def skolemise(graph: rdflib.Graph) -> rdflib.Graph:
+def skolemise(graph: Iterable[Triple]) -> list[Triple]:
     """Replace blank nodes by IRIs that depend only on what surrounds them.
 
     Blank nodes are grouped into connected components; each component, with the triples that touch
@@ -144,11 +149,15 @@ def skolemise(graph: rdflib.Graph) -> rdflib.Graph:
     those canonical labels. So the same description skolemises to the same IRIs every time, whatever
     else the file or the seed contains: adding and later removing a file with blank nodes addresses the
     same nodes, and editing one part of the ontology does not rename blank nodes elsewhere.
-    Graphs without blank nodes are returned unchanged.
+    Triples without blank nodes pass through as they are (an rdflib Graph is never copied: at the seed's
+    33k triples that copy cost more than the parse).
     """
-    touching = [t for t in graph if isinstance(t[0], BNode) or isinstance(t[2], BNode)]
+    out: list[Triple] = []
+    touching: list[Triple] = []
+    for t in graph:
+        (touching if isinstance(t[0], BNode) or isinstance(t[2], BNode) else out).append(t)
     if not touching:
-        return graph
+        return out
     parent: dict[Node, Node] = {}
 
     def find(x: Node) -> Node:
@@ -165,13 +174,6 @@ def skolemise(graph: rdflib.Graph) -> rdflib.Graph:
         b = t[0] if isinstance(t[0], BNode) else t[2]
         components.setdefault(find(b), rdflib.Graph()).add(t)
 
-    out = rdflib.Graph()
-    for prefix, ns in graph.namespaces():
-        out.bind(prefix, ns, override=False)
-    for t in graph:
-        if not (isinstance(t[0], BNode) or isinstance(t[2], BNode)):
-            out.add(t)
-
     for component in components.values():
         canon = to_canonical_graph(component)
         # canonical labels are only unique within a component: qualify them by its content
@@ -182,8 +184,7 @@ def skolemise(graph: rdflib.Graph) -> rdflib.Graph:
                 return URIRef(GENID + hashlib.sha1((digest + str(t)).encode()).hexdigest()[:20])
             return t
 
-        for s, p, o in canon:
-            out.add((sk(s), p, sk(o)))
+        out.extend((sk(s), p, sk(o)) for s, p, o in canon)
     return out
 
 

@@ -114,7 +114,7 @@ class Vocabulary:
                 ?r nfex:normParameter/nfex:opencvName ?pname ; nfex:matchNorm ?norm ; nfex:whenValue ?v .
             } GROUP BY ?xname ?pname ?norm"""
         ).rows:
-            when = tuple(_parse_number(v) for v in str(r["vals"]).split())
+            when = tuple(sorted(_parse_number(v) for v in str(r["vals"]).split()))  # GROUP_CONCAT's order is the store's
             norm_rules.setdefault(str(r["xname"]), []).append(NormRuleSpec(str(r["pname"]), when, str(r["norm"])))
 
         ops: dict[str, list[str]] = {}

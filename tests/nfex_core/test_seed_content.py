@@ -74,3 +74,27 @@ def test_the_cache_keeps_the_most_recently_used_seeds(tmp_path: Path) -> None:
     first = seed_content(settings, seed_graph)
     kept = sorted(p.name for p in settings.seed_cache.iterdir())
     assert len(kept) == KEEP and f"{first.digest}.nt" in kept
+
+
+def test_round_trips_checks_every_term() -> None:
+    from rdflib import Literal, URIRef
+    from rdflib.namespace import XSD
+
+    from nfex_core.seed_content import PROBE, round_trips
+
+    fine = {URIRef("https://w3id.org/nfex#ORB"), Literal("a\nb \"q\""), Literal("x", lang="en"), Literal("1.5", datatype=XSD.decimal), PROBE}
+    assert round_trips(fine)
+    assert not round_trips(fine | {URIRef("https://example.org/a b")})  # not an IRI N-Triples can write
+    assert not round_trips(fine | {URIRef("relative")})
+    assert not round_trips(fine | {Literal("x", datatype=URIRef("relative"))})
+
+
+def test_a_seed_that_does_not_round_trip_is_not_cached(tmp_path: Path) -> None:
+    from rdflib import RDFS, Literal, URIRef
+
+    settings = settings_in(tmp_path)
+    odd = (URIRef("https://example.org/a b"), RDFS.label, Literal("x"))  # a source built by code, not parsed
+    content = seed_content(settings, lambda s: seed_graph(s) | {odd})
+    assert not content.cached and not settings.seed_cache.exists()
+    assert odd in content.triples() and content.triples() == graph_triples(seed_graph(settings) | {odd})
+    assert not seed_content(settings, seed_graph).cached
