@@ -157,3 +157,37 @@ def test_a_note_no_shape_reads_validates_its_own_node_only(graph) -> None:  # ty
     edit = kg.check(ChangeSet.of(added=[(NFEX.ORB_nfeatures, NFEX.maxValue, Literal(5))], removed=old))
     assert edit.focus_nodes > 1
     assert any(r.focus_node == str(NFEX.base_orb) for r in edit.violations), edit.text  # its 2000 is now out of range
+
+
+NESTED = """@prefix sh: <http://www.w3.org/ns/shacl#> . @prefix xsd: <http://www.w3.org/2001/XMLSchema#> .
+@prefix ex: <https://example.org/> .
+ex:ThingShape a sh:NodeShape ; sh:targetClass ex:Thing ;
+    sh:property [ sh:path ex:size ; sh:or ( [ sh:datatype xsd:integer ] [ sh:datatype xsd:double ] ) ] ;
+    sh:property [ sh:path ex:part ; sh:node ex:PartShape ] .
+ex:PartShape a sh:NodeShape ; sh:property [ sh:path ex:label ; sh:minCount 1 ] .
+"""
+DATA = """@prefix ex: <https://example.org/> .
+ex:a a ex:Thing ; ex:size "big" ; ex:part ex:pa .  ex:pa ex:note "no label" .
+ex:b a ex:Thing ; ex:size "huge" ; ex:part ex:pb .  ex:pb ex:note "no label" .
+ex:c a ex:Thing ; ex:size 3 .
+"""
+
+
+def test_a_focused_validation_checks_nested_shapes_and_only_its_focus() -> None:
+    """Regression: pySHACL's own focus_nodes option lets an sh:or over a literal, or an sh:node on a value that
+    is not a focus node, pass vacuously; the focus here narrows only the top-level targets."""
+    from nfex_core.kg.validation import _run_pyshacl, shapes_in
+
+    shapes = shapes_in(parse_rdf(NESTED))
+    data = parse_rdf(DATA)
+    ex = "https://example.org/"
+    whole, _ = _run_pyshacl(data, shapes, None)
+    # pySHACL reports the nested sh:node violation twice: on the Thing, and as its detail on the part
+    assert {(r.focus_node, r.path) for r in whole} == {(ex + n, ex + p) for n in "ab" for p in ("size", "part")} | {
+        (ex + "pa", ex + "label"), (ex + "pb", ex + "label")}
+    focused, text = _run_pyshacl(data, shapes, {URIRef(ex + "a"), URIRef(ex + "pa"), URIRef(ex + "c")})
+    assert {(r.focus_node, r.path) for r in focused} == {(ex + "a", ex + "size"), (ex + "a", ex + "part"), (ex + "pa", ex + "label")}
+    assert focused == [r for r in whole if r.focus_node in (ex + "a", ex + "pa")]
+    assert "Conforms: False" in text
+    assert _run_pyshacl(data, shapes, {URIRef(ex + "c"), URIRef(ex + "pb")})[0] == []  # pb is b's part: b is not in focus
+    assert _run_pyshacl(data, shapes, None)[0] == whole  # the kept shapes graph is not left focused
