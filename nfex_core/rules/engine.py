@@ -23,8 +23,10 @@ Composition (paper §IV-A): several ``adjust`` statements on one parameter multi
 """
 from __future__ import annotations
 
+import concurrent.futures
 import functools
 import logging
+import os
 import threading
 import time
 from collections.abc import Callable, Collection, Hashable, Mapping, Sequence
@@ -40,6 +42,7 @@ from ..evidence import Admission, Aggregate, Observation, robust
 from ..evidence.groups import Grouped
 from ..evidence.index import Diff, ObservationIndex
 from ..evidence.view import EvidenceView, evidence_view, summary_lines
+from ..kg.backends import Backend, EmbeddedBackend
 from ..kg.changes import evidence_only
 from ..kg.footprint import reads
 from ..kg.vocab import ExtractorSpec, Value
@@ -228,17 +231,19 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     earlier = previous.hits if previous is not None and touched is not None and previous.setup is not None \
         and _extractor_names(previous.setup) == _extractor_names(setup) else {}
     hits: dict[tuple[pruning.SparqlRule, str], dict[int, list[tuple[str, Citation]]]] = {}
+    due = [k for k, (rule, query) in enumerate(zip(setup.rules, setup.queries, strict=True)) if not isinstance(query, Exception)
+           and ((rule, query) not in earlier or reads(setup.footprints[k], touched))]
+    found_by = _evaluate_rules(view, [(setup.rules[k], cast(str, setup.queries[k])) for k in due])
     for k, (rule, query) in enumerate(zip(setup.rules, setup.queries, strict=True)):
         if isinstance(query, Exception):  # a broken rule must not take selection down; it is reported
             errors.append(f"{rule.iri}: {query}")
             continue
         kept = earlier.get((rule, query))
-        if kept is None or reads(setup.footprints[k], touched):
-            try:
-                found = pruning.evaluate(view, rule, query)
-            except Exception as e:  # a broken rule must not take selection down; it is reported
-                errors.append(f"{rule.iri}: {e}")
-                log.warning("pruning rule %s failed: %s", rule.iri, e)
+        if k in due:
+            found = found_by[due.index(k)]
+            if isinstance(found, Exception):  # a broken rule must not take selection down; it is reported
+                errors.append(f"{rule.iri}: {found}")
+                log.warning("pruning rule %s failed: %s", rule.iri, found)
                 continue
             kept = {}
             for i, found_here in found.items():
@@ -246,6 +251,7 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
                     spec = vocab.by_iri.get(URIRef(x))
                     if isinstance(spec, ExtractorSpec):
                         kept.setdefault(i, []).append((spec.name, Citation(str(rule.iri), rule.label, reason, "sparql", rule.source)))
+        assert kept is not None
         hits[(rule, query)] = kept
         for i, pairs in kept.items():
             ruled.setdefault(i, []).extend(pairs)
@@ -284,6 +290,32 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
                      configurations, setup.min_measurements, observed, admission, step_checks=dict(setup.step_checks),
                      index=index, view=made, setup=setup, hits=hits, ruled={i: tuple(r) for i, r in ruled.items()}, plain=plain,
                      grouped=grouped, summary_lines=lines, cost_groups=aggregates, measured_groups=measured)
+
+
+Found = dict[int, list[tuple[URIRef, str]]]  # pruning.evaluate's: per context index, the extractors pruned and why
+_RULE_THREADS: concurrent.futures.ThreadPoolExecutor | None = None
+_RULE_THREADS_LOCK = threading.Lock()
+
+
+def _evaluate_rules(view: Backend, rules: Sequence[tuple[pruning.SparqlRule, str]]) -> list[Found | Exception]:
+    """Each rule's contextualised query on the view, side by side: Oxigraph evaluates a query without holding
+    the GIL, and the rules are independent reads of one in-memory store, so on two cores the measured rules
+    (~14 ms each over 1,296 contexts) take about half the time they take one after another."""
+    def one(rule: pruning.SparqlRule, query: str) -> Found | Exception:
+        try:
+            return pruning.evaluate(view, rule, query)
+        except Exception as e:  # reported by the caller, with the rule
+            return e
+
+    if len(rules) < 2 or not isinstance(view, EmbeddedBackend):  # a remote store's queries are its server's work
+        return [one(r, q) for r, q in rules]
+    global _RULE_THREADS
+    with _RULE_THREADS_LOCK:
+        if _RULE_THREADS is None:
+            _RULE_THREADS = concurrent.futures.ThreadPoolExecutor(max_workers=max(2, min(4, os.cpu_count() or 1)),
+                                                                  thread_name_prefix="nfex-rule")
+        pool = _RULE_THREADS
+    return list(pool.map(lambda rq: one(*rq), rules))
 
 
 def _extractor_names(setup: Setup) -> dict[str, str]:
