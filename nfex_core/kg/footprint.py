@@ -19,6 +19,8 @@ from rdflib.plugins.sparql import prepareQuery
 from rdflib.plugins.sparql.algebra import translateGroupGraphPattern, traverse
 from rdflib.term import URIRef
 
+from .backends import GraphReader, SelectResult
+from .history import prefix_block
 from .validation import RDFLIB_SPARQL_PARSER
 
 Footprint = frozenset[tuple[str, str | None]]  # (predicate, object or None: any)
@@ -81,3 +83,31 @@ def reads(footprint: Footprint | None, touched: Collection[tuple[str, str]] | No
     if footprint is None or touched is None:
         return True
     return any((p, None) in footprint or (p, o) in footprint for p, o in touched)
+
+
+class Recorder:
+    """A ``GraphReader`` over ``reader`` that notes every query it passes on, so that what a loader read can be
+    told afterwards: ``footprint()`` is the union of its queries' footprints (None when any has none, or when
+    it asked nothing). ``KnowledgeGraph`` learns the vocabulary's this way and carries the vocabulary over a
+    change that misses it — without a list of the loader's queries to keep in step with the loader."""
+
+    def __init__(self, reader: GraphReader) -> None:
+        self._reader = reader
+        self.queries: list[str] = []
+
+    @property
+    def version(self) -> int:
+        return self._reader.version
+
+    def select(self, query: str, *, prefixes: bool = True) -> SelectResult:
+        self.queries.append((prefix_block() if prefixes else "") + query)
+        return self._reader.select(query, prefixes=prefixes)
+
+    def footprint(self) -> Footprint | None:
+        found: set[tuple[str, str | None]] = set()
+        for query in self.queries:
+            fp = footprint(query)
+            if fp is None:
+                return None
+            found |= fp
+        return frozenset(found) if self.queries else None

@@ -33,6 +33,7 @@ from .claims import Rival, ttl_for
 from .claims import release as release_claim
 from .claims import rivals as rival_claims
 from .claims import take as take_claim
+from .footprint import Footprint, Recorder, reads
 from .history import (
     HEAD,
     ChangeText,
@@ -82,6 +83,7 @@ class KnowledgeGraph:
         self.settings = settings or Settings.from_env()
         self._cache: dict[str, tuple[int, Any]] = {}
         self._cache_lock = threading.Lock()
+        self._vocabulary_footprint: Footprint | None = None  # what loading the vocabulary read (_carry_vocabulary)
         self._listeners: list[Callable[[int], None]] = []
         self._ensure_head()
 
@@ -183,19 +185,30 @@ class KnowledgeGraph:
                 self._cache["shapes"] = (head + 1, hit[1])
 
     def _carry_vocabulary(self, change: ChangeSet, head: int) -> None:
-        """The vocabulary of ``head`` is that of ``head + 1`` when ``change`` (just committed) touches evidence
-        only (changes.evidence_only: a report's Measurement, run, configuration, …): spares each report batch,
-        and the compile after it, a reload (~15 ms)."""
+        """The vocabulary of ``head`` is that of ``head + 1`` when ``change`` (just committed) misses what loading
+        it reads (the footprint of its queries, kg/footprint.py: an editor's statement toggle) or touches
+        evidence only (changes.evidence_only: a report's Measurement, run, configuration, …): spares each
+        report batch and editor's write, and the compile after it, a reload (~15 ms)."""
         with self._cache_lock:
             hit = self._cache.get("vocabulary")
-        if hit is None or hit[0] != head or not evidence_only(self.backend, change):
+            fp = self._vocabulary_footprint
+        if hit is None or hit[0] != head:
+            return
+        if reads(fp, {(str(p), str(o)) for _, p, o in change.added | change.removed}) and not evidence_only(self.backend, change):
             return
         with self._cache_lock:
             if self._cache.get("vocabulary") is hit:
                 self._cache["vocabulary"] = (head + 1, hit[1])
 
     def vocabulary(self) -> Vocabulary:
-        return self.cached("vocabulary", lambda: Vocabulary.load(self))
+        return self.cached("vocabulary", self._load_vocabulary)
+
+    def _load_vocabulary(self) -> Vocabulary:
+        reader = Recorder(self)
+        vocab = Vocabulary.load(reader)
+        with self._cache_lock:
+            self._vocabulary_footprint = reader.footprint()
+        return vocab
 
     # ------------------------------------------------------------------ validating
     def validate(self) -> Report:

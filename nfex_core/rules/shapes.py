@@ -204,9 +204,17 @@ def require_as_shape(s: CompiledStatement) -> CompiledShape | None:
     return CompiledShape(s.iri, s.label, s.reason, s.extractor, s.atoms, bound, kind="require", source=s.source)
 
 
-def load_context_shapes(kg: KnowledgeGraph, vocab: Vocabulary, statements: list[CompiledStatement]) -> tuple[list[CompiledShape], list[str]]:
-    """Every context shape of the graph and every shapeless ``require``; errors for malformed shapes."""
-    g = kg.shapes().graph
+_last: tuple[rdflib.Graph, Vocabulary, list[CompiledShape], list[str]] | None = None  # (graph, vocab, shapes, errors)
+
+
+def _graph_shapes(g: rdflib.Graph, vocab: Vocabulary) -> tuple[list[CompiledShape], list[str]]:
+    """The context shapes of shapes graph ``g``, compiled and verified (pySHACL), for ``vocab``: both are kept
+    across versions that leave them alone (KnowledgeGraph carries the same objects), so the last answer is
+    kept for the same two objects — an editor's statement toggle compiles no shape again."""
+    global _last
+    hit = _last
+    if hit is not None and hit[0] is g and hit[1] is vocab:
+        return list(hit[2]), list(hit[3])
     out: list[CompiledShape] = []
     errors: list[str] = []
     for node in context_shape_nodes(g):
@@ -216,6 +224,13 @@ def load_context_shapes(kg: KnowledgeGraph, vocab: Vocabulary, statements: list[
             errors.append(f"{node}: {e} (docs/shapes.md)")
     out, unverified = verify_prohibitions(out, vocab, g)
     errors += unverified
+    _last = (g, vocab, list(out), list(errors))
+    return out, errors
+
+
+def load_context_shapes(kg: KnowledgeGraph, vocab: Vocabulary, statements: list[CompiledStatement]) -> tuple[list[CompiledShape], list[str]]:
+    """Every context shape of the graph and every shapeless ``require``; errors for malformed shapes."""
+    out, errors = _graph_shapes(kg.shapes().graph, vocab)
     for s in statements:
         if s.kind == "require" and s.shape is None:
             shape = require_as_shape(s)

@@ -178,3 +178,33 @@ def test_shapes_carry_over_a_commit_that_leaves_them_alone(kg: KnowledgeGraph) -
     kg.add(parse_rdf(shape), author="a")
     after = kg.shapes()
     assert after is not before and NFEX.TestShape in after.nodes and after.nodes == extract_shapes(kg.backend).nodes
+
+
+SPARQL_P = "PREFIX nfex: <https://w3id.org/nfex#> PREFIX rdfs: <http://www.w3.org/2000/01/rdf-schema#> "
+VOCAB_EDITS = [
+    # what the vocabulary reads: each must reload it
+    "DELETE DATA { nfex:ORB_nfeatures nfex:maxValue 20000 } ; INSERT DATA { nfex:ORB_nfeatures nfex:maxValue 9000 }",
+    'INSERT DATA { nfex:ORB rdfs:label "ORB (edited)"@en }',
+    'INSERT DATA { nfex:light_dusk a nfex:ConditionValue ; nfex:inDimension nfex:light ; nfex:token "dusk" ; nfex:ordinal 2 ; '
+    'rdfs:label "dusk"@en }',
+    # what it does not read: each carries it
+    "INSERT DATA { nfex:ORB rdfs:seeAlso <https://example.org/orb> }",
+    "INSERT DATA { <STATEMENT> nfex:enabled false }",
+]
+
+
+@pytest.mark.parametrize("edits", [VOCAB_EDITS, list(reversed(VOCAB_EDITS))])
+def test_the_vocabulary_carries_over_a_change_it_does_not_read(kg: KnowledgeGraph, edits: list[str]) -> None:
+    """A carried vocabulary (the change missed its queries' footprint) equals one loaded afresh, edit after edit."""
+    import dataclasses
+
+    from nfex_core.kg.vocab import Vocabulary
+
+    statement = str(kg.select("SELECT ?s WHERE { ?s nfex:inProgram ?p } ORDER BY ?s").rows[0]["s"])
+    for edit in edits:
+        before = kg.vocabulary()
+        kg.update(SPARQL_P + edit.replace("STATEMENT", statement), author="a")
+        after = kg.vocabulary()
+        fresh = Vocabulary.load(kg)
+        assert dataclasses.replace(after, version=0) == dataclasses.replace(fresh, version=0), edit
+        assert (after is before) == ("seeAlso" in edit or "enabled" in edit), edit

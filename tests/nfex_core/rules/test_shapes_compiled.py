@@ -182,3 +182,23 @@ def test_shapes_not_of_the_compiled_form_are_reported_not_applied(kg: KnowledgeG
     assert len(vacuous) == 1 and "neither a parameter bound nor violated" in vacuous[0] and "BRISK" in vacuous[0]
     assert len(odd) == 1 and "the gate may read" in odd[0]
     assert "BRISK" in table.decide({"scene": "indoor"}).candidates
+
+
+def test_context_shapes_compile_again_only_when_shapes_or_vocabulary_change(kg: KnowledgeGraph, monkeypatch: pytest.MonkeyPatch) -> None:
+    import rdflib as _rdflib
+
+    from nfex_core.rules import shapes as shapes_module
+
+    calls: list[object] = []
+    real = shapes_module.compile_shape
+    monkeypatch.setattr(shapes_module, "compile_shape", lambda g, vocab, node: calls.append(node) or real(g, vocab, node))
+    first = compile_table(kg)
+    n = len(calls)
+    assert n > 0 and not any("shape_test_" in e for e in first.errors)
+    kg.update("PREFIX nfex: <https://w3id.org/nfex#> INSERT DATA { nfex:ORB nfex:note 'unrelated' }", author="t")
+    assert compile_table(kg, first).errors == first.errors and len(calls) == n  # the same shapes graph and vocabulary
+    kg.add(_rdflib.Graph().parse(data=BAD, format="turtle"), author="t")  # a shape edit: compiled again, and seen
+    errors = compile_table(kg).errors
+    assert len(calls) > n and sum("shape_test_" in e for e in errors) == 2
+    kg.remove(_rdflib.Graph().parse(data=BAD, format="turtle"), author="t")
+    assert not any("shape_test_" in e for e in compile_table(kg).errors)
