@@ -32,7 +32,7 @@ from rdflib.term import BNode, Literal, Node, URIRef
 from ..config import Settings
 from ..errors import BadInput, Conflict, ParseError, QueryLimitExceeded, StoreUnavailable
 from .protocol import ServerAuth, dataset_params
-from .terms import from_oxigraph, from_sparql_json
+from .terms import Triple, from_oxigraph, from_sparql_json
 
 Row = dict[str, Node]
 DEADLOCK_RETRIES = 8
@@ -121,6 +121,10 @@ class Backend(ABC):
     @abstractmethod
     def construct(self, query: str) -> rdflib.Graph: ...
 
+    def triples(self, query: str) -> set[Triple]:
+        """A CONSTRUCT's triples as a set: what a caller that only reads them needs (no rdflib Graph built)."""
+        return set(self.construct(query))
+
     @abstractmethod
     def update(self, update: str) -> None: ...
 
@@ -178,12 +182,16 @@ class EmbeddedBackend(Backend):
             raise BadInput("expected a SELECT query")
         names = [v.value for v in res.variables]
         rows: list[Row] = []
+        terms: dict[object, Node] = {}  # a term repeats across rows (a rule's extractor and reason per context)
         for sol in res:
             row: Row = {}
             for name in names:
                 term = sol[name]
                 if term is not None:
-                    row[name] = from_oxigraph(term)
+                    found = terms.get(term)
+                    if found is None:
+                        found = terms[term] = from_oxigraph(term)
+                    row[name] = found
             rows.append(row)
         return SelectResult(names, rows)
 
@@ -194,13 +202,24 @@ class EmbeddedBackend(Backend):
         return bool(res)
 
     def construct(self, query: str) -> rdflib.Graph:
+        g = rdflib.Graph()
+        for t in self.triples(query):
+            g.add(t)
+        return g
+
+    def triples(self, query: str) -> set[Triple]:
         res = self._run(query)
         if not isinstance(res, ox.QueryTriples):
             raise BadInput("expected a CONSTRUCT or DESCRIBE query")
-        g = rdflib.Graph()
-        for t in res:
-            g.add((from_oxigraph(t.subject), from_oxigraph(t.predicate), from_oxigraph(t.object)))
-        return g
+        terms: dict[object, Node] = {}  # a term repeats across triples (predicates, classes): converted once
+
+        def term(x: object) -> Node:
+            found = terms.get(x)
+            if found is None:
+                found = terms[x] = from_oxigraph(x)
+            return found
+
+        return {(term(t.subject), term(t.predicate), term(t.object)) for t in res}
 
     def update(self, update: str) -> None:
         try:

@@ -95,8 +95,7 @@ class CandidateView:
         out: set[Triple] = set()
         for batch in _chunks(nodes):
             values = " ".join(n3(n) for n in batch)
-            g = self.backend.construct(f"CONSTRUCT {{ ?s ?p ?o }} WHERE {{ VALUES ?s {{ {values} }} ?s ?p ?o }}")
-            out.update(g)
+            out |= self.backend.triples(f"CONSTRUCT {{ ?s ?p ?o }} WHERE {{ VALUES ?s {{ {values} }} ?s ?p ?o }}")
         out -= self.change.removed
         for n in nodes:
             out |= self._added_by_s.get(n, set())
@@ -114,10 +113,7 @@ class CandidateView:
         out: set[Triple] = set()
         for batch in _chunks(nodes):
             values = " ".join(n3(n) for n in batch)
-            g = self.backend.construct(
-                f"CONSTRUCT {{ ?s ?p ?o }} WHERE {{ VALUES ?o {{ {values} }} ?s ?p ?o . {pred_filter} }}"
-            )
-            out.update(g)
+            out |= self.backend.triples(f"CONSTRUCT {{ ?s ?p ?o }} WHERE {{ VALUES ?o {{ {values} }} ?s ?p ?o . {pred_filter} }}")
         out -= self.change.removed
         for n in nodes:
             for t in self._added_by_o.get(n, set()):
@@ -126,8 +122,8 @@ class CandidateView:
         return out
 
     def subclass_axioms(self) -> set[Triple]:
-        g = self.backend.construct(f"CONSTRUCT {{ ?a {n3(RDFS.subClassOf)} ?b }} WHERE {{ ?a {n3(RDFS.subClassOf)} ?b }}")
-        out = set(g) - self.change.removed
+        out = self.backend.triples(f"CONSTRUCT {{ ?a {n3(RDFS.subClassOf)} ?b }} WHERE {{ ?a {n3(RDFS.subClassOf)} ?b }}")
+        out -= self.change.removed
         out |= {t for t in self.change.added if t[1] == RDFS.subClassOf}
         return out
 
