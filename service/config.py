@@ -16,6 +16,7 @@
 | NFEX_SESSION_MEMORY_BYTES  | memory all sessions' previous frames may hold (LRU eviction)       | 512 MiB   |
 | NFEX_LOG_JSON              | one JSON object per log line                                       | true      |
 | NFEX_BACKGROUND_COMPILE    | a stale rule table answers while the next compiles in the background (false: a select after a commit waits for it) | true |
+| NFEX_COMPILE_PAUSE         | while commits stream in, a background compile waits this many times as long as the last one took (0: none; nfex_core/advisor/snapshots.py) | 1 |
 | NFEX_POLL_INTERVAL_S       | how often, at most, a selection reads the store's head: the delay before commits other replicas make to a shared store start compiling here | 0.25 s |
 | NFEX_FEEDBACK_BATCH        | most reports committed together in one transaction (1: one commit per report) | 64 |
 | NFEX_FEEDBACK_WINDOW_MS    | how long the first report of a batch waits for others              | 20 ms     |
@@ -60,6 +61,7 @@ class Settings(BaseSettings):
     max_sessions: int = 256
     session_memory_bytes: int = 512 * 1024 * 1024
     background_compile: bool = True
+    compile_pause: float = 1.0
     poll_interval_s: float = 0.25  # one head read (~0.5 ms on a loopback `oxigraph serve`) per interval at most
     feedback_batch: int = 64
     feedback_window_ms: float = 20.0

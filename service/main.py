@@ -77,7 +77,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.metrics = metrics
         app.state.kg = kg = open_graph(core.store, settings=core)
         app.state.advisor = advisor = Advisor(kg, background=settings.background_compile,
-                                              poll_interval_s=max(0.0, settings.poll_interval_s))
+                                              poll_interval_s=max(0.0, settings.poll_interval_s),
+                                              compile_pause=max(0.0, settings.compile_pause))
         app.state.reports = ReportWriter(kg, max_items=max(1, settings.feedback_batch),
                                          window_s=max(0.0, settings.feedback_window_ms) / 1000)
         app.state.sessions = SessionStore(

@@ -82,6 +82,8 @@ class Advisor:
     trained on a held-out sequence is not used.
     ``background``: compile new graph versions on a background thread while the last snapshot answers
     (snapshots.py); off, a selection after a commit waits for its compile (read-your-writes).
+    ``compile_pause``: in background mode, how long a compile that follows another waits, as a multiple of the
+    last one's duration (snapshots.py: compiles then take at most half of the process while commits stream in).
     ``exhaustive_scoring``: extract and score every candidate on a frame, not only those that can still win
     (scoring.Scorer; the same α* and Θ′, slower: for comparisons; default: the settings', NFEX_SCORE_ALL)."""
 
@@ -97,6 +99,7 @@ class Advisor:
         scope: EvidenceScope | None = None,
         background: bool = False,
         exhaustive_scoring: bool | None = None,
+        compile_pause: float = 1.0,
     ) -> None:
         settings = kg.settings
         self.exhaustive_scoring = settings.score_all if exhaustive_scoring is None else exhaustive_scoring
@@ -108,7 +111,8 @@ class Advisor:
         self.engine = RuleEngine(kg)
         self.scorer = Scorer(score_pixels, score_threads or settings.score_threads_or_cpus)
         self.snapshots: Snapshots[Snapshot] = Snapshots(self._build, lambda: self.kg.version,
-                                                        poll_interval_s=poll_interval_s, background=background)
+                                                        poll_interval_s=poll_interval_s, background=background,
+                                                        pause=compile_pause)
         kg.on_commit(self.snapshots.learn)
 
     @property

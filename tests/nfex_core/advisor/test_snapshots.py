@@ -132,3 +132,65 @@ def test_the_advisor_in_background_mode_reports_versions_and_reads_its_writes_wh
     after = advisor.select(ctx, consistency="latest")  # read-your-writes, as the service's ?consistency=latest
     assert after.extractor != "ORB" and after.versions["graph"] == v0 + 1 and after.versions["stale_ms"] == 0
     advisor.close()
+
+
+class Timed(Store):
+    """A build that takes ``took`` seconds and notes when each started and ended."""
+
+    def __init__(self, took: float) -> None:
+        super().__init__()
+        self.took = took
+        self.spans: list[tuple[float, float]] = []
+
+    def build(self) -> Snap:
+        start, version = time.monotonic(), self.head  # a compile reads the head when it starts
+        self.started.set()
+        time.sleep(self.took)
+        self.built.append(version)
+        self.spans.append((start, time.monotonic()))
+        return Snap(version)
+
+
+@pytest.mark.parametrize("pause", [0.0, 1.0])
+def test_a_compile_that_follows_another_waits_its_pause(pause: float) -> None:
+    store = Timed(0.15)
+    snaps: Snapshots[Snap] = Snapshots(store.build, lambda: store.head, poll_interval_s=60, background=True, pause=pause)
+    snaps.get()  # the first snapshot, in the caller
+    store.started.clear()
+    store.commit(snaps)  # a background compile of version 2 starts at once
+    assert store.started.wait(5)
+    time.sleep(0.05)
+    store.commit(snaps)  # lands mid-compile: one more compile follows
+    assert snaps.wait_idle(10) and snaps.current is not None and snaps.current.version == 3
+    assert store.built == [1, 2, 3]
+    (_, first_end), (second_start, _) = store.spans[-2:]
+    gap = second_start - first_end
+    if pause:
+        assert 0.14 <= gap < 0.5, gap  # about as long as the last compile took
+    else:
+        assert gap < 0.1, gap
+    store.commit(snaps)  # after an idle spell a compile starts at once again
+    assert snaps.wait_idle(10)
+    assert store.spans[-1][0] - store.spans[-2][1] > 0  # sanity: it ran after
+    snaps.close()
+
+
+def test_close_cuts_a_pause_short() -> None:
+    store = Timed(0.3)
+    snaps: Snapshots[Snap] = Snapshots(store.build, lambda: store.head, poll_interval_s=60, background=True, pause=1.0)
+    snaps.get()
+    store.started.clear()
+    store.commit(snaps)
+    assert store.started.wait(5)
+    time.sleep(0.05)
+    store.commit(snaps)
+    while len(store.spans) < 2:  # the first background compile ended: its follower is pausing
+        time.sleep(0.01)
+    t = time.monotonic()
+    snaps.close()
+    assert time.monotonic() - t < 0.25
+
+
+def test_a_negative_pause_is_refused() -> None:
+    with pytest.raises(ValueError, match="pause"):
+        Snapshots(lambda: Snap(1), lambda: 1, pause=-1)
