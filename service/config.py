@@ -17,6 +17,7 @@
 | NFEX_LOG_JSON              | one JSON object per log line                                       | true      |
 | NFEX_BACKGROUND_COMPILE    | a stale rule table answers while the next compiles in the background (false: a select after a commit waits for it) | true |
 | NFEX_COMPILE_PAUSE         | while commits stream in, a background compile waits this many times as long as the last one took (0: none; nfex_core/advisor/snapshots.py) | 1 |
+| NFEX_GC_FREEZE             | after the warm-up, keep what start-up built out of Python's full garbage collections (gc.freeze) | true |
 | NFEX_POLL_INTERVAL_S       | how often, at most, a selection reads the store's head: the delay before commits other replicas make to a shared store start compiling here | 0.25 s |
 | NFEX_FEEDBACK_BATCH        | most reports committed together in one transaction (1: one commit per report) | 64 |
 | NFEX_FEEDBACK_WINDOW_MS    | how long the first report of a batch waits for others              | 20 ms     |
@@ -68,6 +69,8 @@ class Settings(BaseSettings):
     # how long a thread may hold the GIL while another waits (Python's default 5 ms): the event loop answering a
     # select waits on the background compile and the commits' validation at most this long per switch
     switch_interval_ms: float = 0.5
+    # after the warm-up, move what start-up built out of the garbage collector's full collections (gc.freeze)
+    gc_freeze: bool = True
 
     def core(self) -> CoreSettings:
         core = CoreSettings.from_env()

@@ -7,6 +7,7 @@ import shutil
 from pathlib import Path
 
 import httpx
+import pytest
 
 from tests.conftest import stop_process
 
@@ -95,3 +96,26 @@ def test_the_app_sets_the_gil_switch_interval() -> None:
         assert abs(sys.getswitchinterval() - 0.0007) < 1e-9
     finally:
         sys.setswitchinterval(before)
+
+
+@pytest.mark.parametrize("freeze", [True, False])
+def test_the_warm_up_freezes_what_start_up_built(freeze: bool) -> None:
+    """NFEX_GC_FREEZE: after the first snapshot, what start-up built leaves the collector's full collections
+    (gc.freeze), which otherwise stopped every thread ~100 ms at a time (bench/bench_fleet.py's select max)."""
+    import gc
+    import threading
+    from types import SimpleNamespace
+
+    from service.config import Settings
+    from service.main import _warm
+
+    snap = SimpleNamespace(version=7)
+    state = SimpleNamespace(settings=Settings(gc_freeze=freeze), advisor=SimpleNamespace(snapshot=lambda: snap),
+                            ready=threading.Event())
+    gc.unfreeze()
+    try:
+        _warm(SimpleNamespace(state=state))  # type: ignore[arg-type]
+        assert state.ready.is_set()
+        assert (gc.get_freeze_count() > 0) == freeze
+    finally:
+        gc.unfreeze()
