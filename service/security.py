@@ -20,7 +20,7 @@ from __future__ import annotations
 import hashlib
 import hmac
 import json
-from collections.abc import Callable, Iterable
+from collections.abc import Awaitable, Callable, Iterable
 from typing import Annotated, Any
 from urllib.parse import parse_qsl
 
@@ -92,7 +92,7 @@ SCHEME = HTTPBearer(
 )
 
 
-def bearer(request: Request, _: Annotated[HTTPAuthorizationCredentials | None, Depends(SCHEME)]) -> Token | None:
+async def bearer(request: Request, _: Annotated[HTTPAuthorizationCredentials | None, Depends(SCHEME)]) -> Token | None:
     """The token behind ``Authorization: Bearer <token>``; None without the header; 401 when it is not valid."""
     authorization = request.headers.get("authorization")
     if not authorization:
@@ -107,10 +107,10 @@ def bearer(request: Request, _: Annotated[HTTPAuthorizationCredentials | None, D
     return found
 
 
-def require(role: str, what: str) -> Callable[..., Token]:
+def require(role: str, what: str) -> Callable[..., Awaitable[Token]]:
     """A dependency that returns the request's token when it has ``role`` or a higher one."""
 
-    def dependency(token: Annotated[Token | None, Depends(bearer)]) -> Token:
+    async def dependency(token: Annotated[Token | None, Depends(bearer)]) -> Token:
         if token is None:
             raise Unauthorized(f"{what} needs 'Authorization: Bearer <token>' with the {role} role (NFEX_TOKENS)")
         if rank(token.role) < rank(role):
