@@ -32,7 +32,7 @@ from rdflib.term import BNode, Literal, Node, URIRef
 from ..config import Settings
 from ..errors import BadInput, Conflict, ParseError, QueryLimitExceeded, StoreUnavailable
 from .protocol import ServerAuth, dataset_params
-from .terms import Triple, from_oxigraph, from_sparql_json
+from .terms import Triple, from_sparql_json, term_converter
 
 Row = dict[str, Node]
 DEADLOCK_RETRIES = 8
@@ -182,16 +182,13 @@ class EmbeddedBackend(Backend):
             raise BadInput("expected a SELECT query")
         names = [v.value for v in res.variables]
         rows: list[Row] = []
-        terms: dict[object, Node] = {}  # a term repeats across rows (a rule's extractor and reason per context)
+        convert = term_converter()  # a term repeats across rows (a rule's extractor and reason per context)
         for sol in res:
             row: Row = {}
             for name in names:
                 term = sol[name]
                 if term is not None:
-                    found = terms.get(term)
-                    if found is None:
-                        found = terms[term] = from_oxigraph(term)
-                    row[name] = found
+                    row[name] = convert(term)
             rows.append(row)
         return SelectResult(names, rows)
 
@@ -211,14 +208,7 @@ class EmbeddedBackend(Backend):
         res = self._run(query)
         if not isinstance(res, ox.QueryTriples):
             raise BadInput("expected a CONSTRUCT or DESCRIBE query")
-        terms: dict[object, Node] = {}  # a term repeats across triples (predicates, classes): converted once
-
-        def term(x: object) -> Node:
-            found = terms.get(x)
-            if found is None:
-                found = terms[x] = from_oxigraph(x)
-            return found
-
+        term = term_converter()
         return {(term(t.subject), term(t.predicate), term(t.object)) for t in res}
 
     def update(self, update: str) -> None:
@@ -335,8 +325,21 @@ class RemoteBackend(Backend):
         return bool(data["boolean"])
 
     def construct(self, query: str) -> rdflib.Graph:
+        g = rdflib.Graph()
+        for t in self.triples(query):
+            g.add(t)
+        return g
+
+    def triples(self, query: str) -> set[Triple]:
+        """The N-Triples answer parsed by Oxigraph (rdflib's parser took most of a commit's validation reads),
+        each distinct term converted once, literals normalised as the embedded store's are."""
         r = self._post_query(query, "application/n-triples")
-        return rdflib.Graph().parse(data=r.text, format="nt")
+        try:
+            term = term_converter()
+            return {(term(q.subject), term(q.predicate), term(q.object))
+                    for q in ox.parse(r.content, format=ox.RdfFormat.N_TRIPLES)}
+        except SyntaxError as e:
+            raise StoreUnavailable(f"the SPARQL server at {self.location} answered a CONSTRUCT with invalid N-Triples: {e}") from e
 
     def update(self, update: str) -> None:
         for attempt in range(DEADLOCK_RETRIES + 1):

@@ -8,7 +8,7 @@ blank node cannot be addressed by a later request — a DELETE of a blank node m
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from decimal import Decimal
 from typing import Any
 
@@ -76,6 +76,20 @@ def from_oxigraph(term: object, *, as_written: bool = False) -> Node:
             return Literal(term.value) if term.datatype == XSD_STRING else Literal(term.value, datatype=URIRef(term.datatype.value))
         return plain(Literal(term.value, datatype=URIRef(term.datatype.value)))
     raise TypeError(f"unsupported term {term!r}")
+
+
+def term_converter() -> Callable[[object], Node]:
+    """``from_oxigraph`` that converts each distinct term once: for the terms of one result, where the same
+    predicates, classes, extractors and reasons repeat row after row."""
+    terms: dict[object, Node] = {}
+
+    def convert(term: object) -> Node:
+        found = terms.get(term)
+        if found is None:
+            found = terms[term] = from_oxigraph(term)
+        return found
+
+    return convert
 
 
 def from_sparql_json(b: dict[str, str]) -> Node:
