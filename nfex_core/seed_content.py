@@ -31,7 +31,7 @@ from rdflib.term import Node, URIRef
 from .config import Settings
 from .kg.changes import graph_triples
 from .kg.history import ChangeText
-from .kg.terms import Triple, from_oxigraph, nt, triple_n3, triple_nt
+from .kg.terms import Triple, nt, oxigraph_triples, triple_n3, triple_nt
 from .rules.dsl.parser import GRAMMAR
 
 log = logging.getLogger("nfex.seed")
@@ -61,10 +61,7 @@ class SeedContent:
 
 def parse_lines(lines: tuple[str, ...] | list[str]) -> frozenset[Triple]:
     data = "\n".join(lines).encode("utf-8")
-    return frozenset(
-        (from_oxigraph(q.subject), from_oxigraph(q.predicate), from_oxigraph(q.object))
-        for q in ox.parse(data, format=ox.RdfFormat.N_TRIPLES)
-    )
+    return frozenset(oxigraph_triples(ox.parse(data, format=ox.RdfFormat.N_TRIPLES)))
 
 
 def round_trips(terms: set[Node]) -> bool:

@@ -56,8 +56,9 @@ def _warm(app: FastAPI) -> None:
     try:
         snap = app.state.advisor.snapshot()
         if app.state.settings.gc_freeze:
-            # what start-up built (modules, the vocabulary, shapes, the first table) lives as long as the process:
-            # out of the collector's sight, a full collection no longer stops every thread for ~100 ms to walk it
+            # what start-up built (modules, the vocabulary, shapes) mostly lives as long as the process: out of the
+            # collector's sight, a full collection no longer stops every thread for ~100 ms to walk it. What of it
+            # dies in a cycle later (the first rule table, shapes replaced by an edit) is kept: once, bounded.
             gc.collect()
             gc.freeze()
         app.state.ready.set()
@@ -104,6 +105,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             app.state.reports.close()
             advisor.close()
             kg.close()
+            gc.unfreeze()  # a process that runs the app again (tests, an embedding host) starts from a collectable heap
 
     app = FastAPI(title="nFEX", version=__version__, summary="Which feature extractor to run, with which parameters, and why.",
                   description=DESCRIPTION, lifespan=lifespan, docs_url=None, redoc_url=None)

@@ -170,13 +170,14 @@ class Snapshots(Generic[S]):
                 with self._state:  # close() cut the pause short: no more compiles
                     self._worker = None
                 return
-            follows = True
+            follows = False
             try:
                 with self._compile:
                     if self._behind():  # a sync() may have built it meanwhile
                         started = time.monotonic()
                         self._install(self._build())
                         self._last_compile_s = time.monotonic() - started
+                        follows = True  # only a compile that ran paces the next
                 self.error = None
             except Exception as e:  # the stale snapshot keeps answering; the next commit or sync() retries
                 self.error = e

@@ -32,7 +32,7 @@ from rdflib.term import BNode, Literal, Node, URIRef
 from ..config import Settings
 from ..errors import BadInput, Conflict, ParseError, QueryLimitExceeded, StoreUnavailable
 from .protocol import ServerAuth, dataset_params
-from .terms import Triple, from_sparql_json, term_converter
+from .terms import Triple, from_sparql_json, oxigraph_triples, term_converter
 
 Row = dict[str, Node]
 DEADLOCK_RETRIES = 8
@@ -118,12 +118,16 @@ class Backend(ABC):
     @abstractmethod
     def ask(self, query: str) -> bool: ...
 
-    @abstractmethod
-    def construct(self, query: str) -> rdflib.Graph: ...
+    def construct(self, query: str) -> rdflib.Graph:
+        """A CONSTRUCT's triples as an rdflib Graph (``triples`` where a set will do: no Graph built)."""
+        g = rdflib.Graph()
+        for t in self.triples(query):
+            g.add(t)
+        return g
 
+    @abstractmethod
     def triples(self, query: str) -> set[Triple]:
-        """A CONSTRUCT's triples as a set: what a caller that only reads them needs (no rdflib Graph built)."""
-        return set(self.construct(query))
+        """A CONSTRUCT's triples as a set, literals normalised (terms.plain)."""
 
     @abstractmethod
     def update(self, update: str) -> None: ...
@@ -198,18 +202,11 @@ class EmbeddedBackend(Backend):
             raise BadInput("expected an ASK query")
         return bool(res)
 
-    def construct(self, query: str) -> rdflib.Graph:
-        g = rdflib.Graph()
-        for t in self.triples(query):
-            g.add(t)
-        return g
-
     def triples(self, query: str) -> set[Triple]:
         res = self._run(query)
         if not isinstance(res, ox.QueryTriples):
             raise BadInput("expected a CONSTRUCT or DESCRIBE query")
-        term = term_converter()
-        return {(term(t.subject), term(t.predicate), term(t.object)) for t in res}
+        return set(oxigraph_triples(res))
 
     def update(self, update: str) -> None:
         try:
@@ -324,20 +321,13 @@ class RemoteBackend(Backend):
             raise BadInput("expected an ASK query")
         return bool(data["boolean"])
 
-    def construct(self, query: str) -> rdflib.Graph:
-        g = rdflib.Graph()
-        for t in self.triples(query):
-            g.add(t)
-        return g
-
     def triples(self, query: str) -> set[Triple]:
         """The N-Triples answer parsed by Oxigraph (rdflib's parser took most of a commit's validation reads),
         each distinct term converted once, literals normalised as the embedded store's are."""
         r = self._post_query(query, "application/n-triples")
         try:
-            term = term_converter()
-            return {(term(q.subject), term(q.predicate), term(q.object))
-                    for q in ox.parse(r.content, format=ox.RdfFormat.N_TRIPLES)}
+            # rename_blank_nodes: one answer's `_:b0` is not another's
+            return set(oxigraph_triples(ox.parse(r.content, format=ox.RdfFormat.N_TRIPLES, rename_blank_nodes=True)))
         except SyntaxError as e:
             raise StoreUnavailable(f"the SPARQL server at {self.location} answered a CONSTRUCT with invalid N-Triples: {e}") from e
 

@@ -18,7 +18,7 @@ from rdflib.term import Node, URIRef
 from ..errors import BadInput, ParseError
 from ..namespaces import NFEX
 from .backends import Backend
-from .terms import Triple, from_oxigraph, n3, normalise, skolemise
+from .terms import Triple, n3, normalise, oxigraph_triples, skolemise
 
 RDF_FORMATS = {
     ".ttl": "turtle",
@@ -169,14 +169,15 @@ def read_turtle(path: Path) -> list[ox.Quad]:
     except OSError as e:
         raise BadInput(f"{path}: cannot read: {e.strerror or e}") from e
     try:
-        return list(ox.parse(data, format=ox.RdfFormat.TURTLE, base_iri=Path.cwd().as_uri() + "/"))
+        # rename_blank_nodes: `_:a` in two files (or two reads of one) is two nodes, as rdflib makes them
+        return list(ox.parse(data, format=ox.RdfFormat.TURTLE, base_iri=Path.cwd().as_uri() + "/", rename_blank_nodes=True))
     except SyntaxError as e:
         raise ParseError(f"{path}: not valid turtle: {e.msg}", line=e.lineno) from e
 
 
 def read_turtle_triples(path: Path) -> list[Triple]:
     """``read_turtle`` as rdflib terms, literals as written (``graph_triples`` skolemises and normalises)."""
-    return [(from_oxigraph(q.subject), from_oxigraph(q.predicate), from_oxigraph(q.object, as_written=True)) for q in read_turtle(path)]
+    return list(oxigraph_triples(read_turtle(path), as_written=True))
 
 
 def read_rdf_file(path: Path) -> rdflib.Graph:

@@ -18,6 +18,11 @@ from .terms import Triple
 from .vocab import Vocabulary
 
 
+def turtle_triples(paths: list[Path]) -> list[Triple]:
+    """The files' triples as one graph, blank nodes not yet skolemised (each file's its own: ``read_turtle``)."""
+    return [t for path in paths for t in read_turtle_triples(path)]
+
+
 def ontology_files(settings: Settings) -> list[Path]:
     """ontology/*.ttl and the generated measurements under ontology/measurements/."""
     if not any(settings.ontology_dir.glob("*.ttl")):
@@ -31,12 +36,12 @@ def ontology_files(settings: Settings) -> list[Path]:
 
 def ontology_graph(settings: Settings) -> list[Triple]:
     """The triples of ``ontology_files``."""
-    return [t for path in ontology_files(settings) for t in read_turtle_triples(path)]
+    return turtle_triples(ontology_files(settings))
 
 
 def shapes_graph(settings: Settings) -> list[Triple]:
     """rules/shapes/*.ttl: integrity, DSL and context shapes."""
-    return [t for path in sorted((settings.rules_dir / "shapes").rglob("*.ttl")) for t in read_turtle_triples(path)]
+    return turtle_triples(sorted((settings.rules_dir / "shapes").rglob("*.ttl")))
 
 
 def ontology_vocabulary(settings: Settings) -> Vocabulary:

@@ -8,7 +8,7 @@ blank node cannot be addressed by a later request — a DELETE of a blank node m
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from decimal import Decimal
 from typing import Any
 
@@ -78,7 +78,7 @@ def from_oxigraph(term: object, *, as_written: bool = False) -> Node:
     raise TypeError(f"unsupported term {term!r}")
 
 
-def term_converter() -> Callable[[object], Node]:
+def term_converter(*, as_written: bool = False) -> Callable[[object], Node]:
     """``from_oxigraph`` that converts each distinct term once: for the terms of one result, where the same
     predicates, classes, extractors and reasons repeat row after row."""
     terms: dict[object, Node] = {}
@@ -86,10 +86,16 @@ def term_converter() -> Callable[[object], Node]:
     def convert(term: object) -> Node:
         found = terms.get(term)
         if found is None:
-            found = terms[term] = from_oxigraph(term)
+            found = terms[term] = from_oxigraph(term, as_written=as_written)
         return found
 
     return convert
+
+
+def oxigraph_triples(items: Iterable[Any], *, as_written: bool = False) -> Iterator[Triple]:
+    """Oxigraph's triples or quads (their default-graph part) as rdflib triples (``term_converter``)."""
+    term = term_converter(as_written=as_written)
+    return ((term(t.subject), term(t.predicate), term(t.object)) for t in items)
 
 
 def from_sparql_json(b: dict[str, str]) -> Node:

@@ -328,7 +328,8 @@ def _run_pyshacl(data: rdflib.Graph, shapes: Shapes, focus: set[Node] | None) ->
         sg = shapes.pyshacl_graph
         sg.focus = frozenset(focus) if focus is not None else None
         try:
-            validator = Validator(DataGraph.from_rdflib(_as_prepared(data)), shacl_graph=shapes.graph, options={
+            # the Validator wraps the graph it is given in a ShapesGraph of its own: an empty one, replaced at once
+            validator = Validator(DataGraph.from_rdflib(_as_prepared(data)), shacl_graph=rdflib.Graph(), options={
                 "advanced": True, "allow_warnings": True, "inplace": True})
             validator.shacl_graph = sg
             try:

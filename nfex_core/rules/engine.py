@@ -233,14 +233,14 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     hits: dict[tuple[pruning.SparqlRule, str], dict[int, list[tuple[str, Citation]]]] = {}
     due = [k for k, (rule, query) in enumerate(zip(setup.rules, setup.queries, strict=True)) if not isinstance(query, Exception)
            and ((rule, query) not in earlier or reads(setup.footprints[k], touched))]
-    found_by = _evaluate_rules(view, [(setup.rules[k], cast(str, setup.queries[k])) for k in due])
+    found_by = dict(zip(due, _evaluate_rules(view, [(setup.rules[k], cast(str, setup.queries[k])) for k in due]), strict=True))
     for k, (rule, query) in enumerate(zip(setup.rules, setup.queries, strict=True)):
         if isinstance(query, Exception):  # a broken rule must not take selection down; it is reported
             errors.append(f"{rule.iri}: {query}")
             continue
         kept = earlier.get((rule, query))
-        if k in due:
-            found = found_by[due.index(k)]
+        if k in found_by:
+            found = found_by[k]
             if isinstance(found, Exception):  # a broken rule must not take selection down; it is reported
                 errors.append(f"{rule.iri}: {found}")
                 log.warning("pruning rule %s failed: %s", rule.iri, found)

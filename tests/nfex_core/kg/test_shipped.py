@@ -59,3 +59,15 @@ def test_a_home_without_an_ontology_is_told_so(tmp_path: Path) -> None:
     shutil.copytree(real.rules_dir, home / "rules")
     with pytest.raises(DataMissing, match="no ontology to seed from"):
         ontology_vocabulary(dataclasses.replace(real, home=home))
+
+
+def test_a_blank_node_label_in_two_files_is_two_nodes(tmp_path: Path) -> None:
+    """Regression: Oxigraph keeps `_:a` as written unless told to rename; rdflib makes each file's its own."""
+    one, two = tmp_path / "one.ttl", tmp_path / "two.ttl"
+    one.write_text('_:a <https://example.org/p> "one" .\n')
+    two.write_text('_:a <https://example.org/p> "two" .\n')
+    from nfex_core.kg.shipped import turtle_triples
+
+    ours = graph_triples(turtle_triples([one, two]))
+    assert len({s for s, _, _ in ours}) == 2
+    assert ours == graph_triples(rdflib_parse([one, two]))
