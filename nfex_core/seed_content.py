@@ -7,7 +7,7 @@ fraction of one. The result depends only on the files and the code that read the
 the digest covers everything that determines it: every file under the home's ontology/ and rules/ (by its
 path there; a file that resolves outside the home also by its absolute path, which a program's
 ``nfex:sourceFile`` records), nfex_core's sources, the DSL grammar, the rdflib and pyoxigraph versions,
-and — when a Turtle file holds an IRI without a scheme, which rdflib resolves against it — the working
+and — when a Turtle file holds an IRI without a scheme, which kg.changes.read_turtle resolves against it — the working
 directory. The folder keeps the ``KEEP`` most recently used seeds. An edited file,
 another nFEX or another rdflib gives another name, so a stale file is never read; a file is written only
 after it was read back to the same triples (tmp file + rename: concurrent writers are harmless), and a
@@ -99,7 +99,7 @@ def digest(settings: Settings) -> str:
                 h.update(f"\0outside\0{path.resolve()}".encode())  # a program there is named by its absolute path
     if GRAMMAR.is_file():
         h.update(b"\0grammar\0" + GRAMMAR.read_bytes())
-    if relative:  # rdflib resolves a relative IRI against the working directory
+    if relative:  # read_turtle resolves a relative IRI against the working directory
         h.update(f"\0cwd\0{Path.cwd()}".encode())
     return h.hexdigest()
 

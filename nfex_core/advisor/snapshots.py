@@ -9,8 +9,7 @@ caller: there is nothing older to answer from), ``Snapshots`` works in one of tw
   that arrive during a compile are coalesced into exactly one more compile, of whatever the head is when
   it starts. While commits stream in, a compile that follows another waits ``pause`` times as long as the
   last one took (1: compiles get at most half of the process, whose Python threads share one interpreter
-  lock with the commits and the requests; on bench/bench_fleet.py this raised the reports/s by about 1.6×
-  and lowered the selects' p99, with answers no staler, since uncontended compiles run faster). Staleness
+  lock with the commits and the requests; docs/service.md, "Pacing", has what bench/bench_fleet.py showed). Staleness
   is bounded: a selection answers from a version at most one compile time plus that pause (at most
   ``MAX_PAUSE_S``: a full compile of a large graph does not hold the next one back for as long) (plus the
   compile already running, when a commit lands mid-compile) behind the last commit made through this

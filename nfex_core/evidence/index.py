@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 
 from rdflib.term import URIRef
 
-from ..kg.footprint import Footprint, footprint, reads
+from ..kg.footprint import Footprint, footprint, pairs, reads
 from ..kg.history import prefix_block
 from ..kg.specs import Value
 from ..kg.terms import Triple, py
@@ -147,7 +147,7 @@ def _relevant(change: ChangeSet) -> list[Triple]:
     """The triples of ``change`` that a row of the index can read: a change of anything else (an extractor's
     comment, a statement) re-reads nothing."""
     fp = _footprint()
-    return [t for t in (*change.added, *change.removed) if reads(fp, {(str(t[1]), str(t[2]))})]
+    return [t for t in (*change.added, *change.removed) if reads(fp, pairs([t]))]
 
 
 def _nameable(iri: str) -> bool:

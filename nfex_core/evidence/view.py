@@ -43,6 +43,7 @@ from rdflib.term import Literal, URIRef
 
 from ..kg.backends import EmbeddedBackend
 from ..kg.claims import META
+from ..kg.footprint import pairs
 from ..kg.history import HEAD, ChangeText
 from ..kg.terms import py
 from ..namespaces import NFEX
@@ -156,8 +157,8 @@ def _touched(kg: KnowledgeGraph, change: ChangeSet, before: frozenset[str], afte
         rows = kg.backend.select(f"SELECT ?m (COUNT(*) AS ?n) WHERE {{ VALUES ?m {{ {values} }} ?m ?p ?o }} GROUP BY ?m").rows
         if any(int(py(r["n"])) != added[str(r["m"])] for r in rows):
             return None  # it had triples before the change: they left the view
-    out = {(str(p), str(o)) for s, p, o in change.added if str(s) not in after}
-    out |= {(str(p), str(o)) for s, p, o in change.removed if str(s) not in before}
+    out = set(pairs(t for t in change.added if str(t[0]) not in after))
+    out |= pairs(t for t in change.removed if str(t[0]) not in before)
     for line in summary:
         _, p, o = line.split(" ", 2)
         out.add((p[1:-1], o[1:-3] if o.startswith("<") else o))

@@ -10,18 +10,18 @@ observations' queries (evidence/index.py).
 from __future__ import annotations
 
 import functools
-from collections.abc import Collection
+from collections.abc import Collection, Iterable
 from typing import Any
 
 from rdflib.namespace import RDF
 from rdflib.paths import AlternativePath, InvPath, MulPath, SequencePath
-from rdflib.plugins.sparql import prepareQuery
 from rdflib.plugins.sparql.algebra import translateGroupGraphPattern, traverse
 from rdflib.term import URIRef
 
 from .backends import GraphReader, SelectResult
 from .history import prefix_block
-from .validation import RDFLIB_SPARQL_PARSER
+from .rdflib_sparql import prepare_query
+from .terms import Triple
 
 Footprint = frozenset[tuple[str, str | None]]  # (predicate, object or None: any)
 _OPAQUE = {"TriplesBlock", "ServiceGraphPattern", "Graph"}  # patterns not in algebra form, or not of the default graph
@@ -33,8 +33,7 @@ def footprint(query: str) -> Footprint | None:
     constant class, else None (any) — or None where that cannot be told (a variable predicate, a negated
     property set, a pattern rdflib's algebra leaves unparsed, a query rdflib cannot parse)."""
     try:
-        with RDFLIB_SPARQL_PARSER:
-            algebra = prepareQuery(query).algebra
+        algebra = prepare_query(query).algebra
     except Exception:
         return None
     found: set[tuple[str, str | None]] = set()
@@ -75,6 +74,11 @@ def footprint(query: str) -> Footprint | None:
 
     traverse(algebra, visitPre=visit)
     return None if opaque else frozenset(found)
+
+
+def pairs(triples: Iterable[Triple]) -> frozenset[tuple[str, str]]:
+    """The (predicate, object) pairs of ``triples``: what ``reads`` compares with a footprint."""
+    return frozenset((str(p), str(o)) for _, p, o in triples)
 
 
 def reads(footprint: Footprint | None, touched: Collection[tuple[str, str]] | None) -> bool:

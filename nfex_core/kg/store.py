@@ -33,7 +33,7 @@ from .claims import Rival, ttl_for
 from .claims import release as release_claim
 from .claims import rivals as rival_claims
 from .claims import take as take_claim
-from .footprint import Footprint, Recorder, reads
+from .footprint import Footprint, Recorder, pairs, reads
 from .history import (
     HEAD,
     ChangeText,
@@ -194,7 +194,7 @@ class KnowledgeGraph:
             fp = self._vocabulary_footprint
         if hit is None or hit[0] != head:
             return
-        if reads(fp, {(str(p), str(o)) for _, p, o in change.added | change.removed}) and not evidence_only(self.backend, change):
+        if reads(fp, pairs(change.added | change.removed)) and not evidence_only(self.backend, change):
             return
         with self._cache_lock:
             if self._cache.get("vocabulary") is hit:

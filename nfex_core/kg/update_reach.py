@@ -33,9 +33,9 @@ from rdflib.paths import AlternativePath, InvPath, MulPath, NegatedPath, Path, S
 from rdflib.term import BNode, Literal, URIRef, Variable
 
 from .backends import Backend
+from .rdflib_sparql import RDFLIB_SPARQL_PARSER
 from .sparql_guard import decode_escapes, tokens
 from .terms import n3
-from .validation import RDFLIB_SPARQL_PARSER
 
 Pattern = tuple[URIRef | None, URIRef | None, URIRef | None]
 """A triple pattern to copy: None matches any term."""

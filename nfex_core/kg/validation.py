@@ -14,7 +14,7 @@ parameter names per extractor — the incoming edges along the predicates those 
 ``nfex:readsBackwardAlong``. ``tests/nfex_core/kg/test_validation.py`` checks on random changes that
 this gives the same verdict as validating the whole candidate graph. pySHACL then validates the focus
 nodes only — the neighbourhood's other nodes are there to be read, not judged (``_OnFocus``) — with a shapes
-graph it keeps across validations (``Shapes.pyshacl_graph``): a report's validation went from ~55 ms to ~6 ms.
+graph it keeps across validations (``Shapes.pyshacl_graph``; bench/bench_shacl_incremental.py times it).
 
 A change that edits the shapes themselves is validated against the whole candidate graph.
 
@@ -38,20 +38,20 @@ from pyshacl.graph_abstraction import DataGraph
 from pyshacl.shapes_graph import ShapesGraph
 from pyshacl.validator import Validator
 from rdflib.namespace import RDF, RDFS, SH
-from rdflib.plugins.sparql import prepareQuery
 from rdflib.term import BNode, Literal, Node, URIRef
 
 from ..errors import BadInput, ValidationResult
 from ..namespaces import NFEX
 from .backends import Backend
 from .changes import ChangeSet
+from .footprint import footprint, pairs, reads
+from .history import prefix_block
+from .rdflib_sparql import prepare_query
 from .terms import Triple, is_skolem, n3
 
 FORWARD_DEPTH = 3
 BACKWARD_DEPTH = 2
 CHUNK = 400
-RDFLIB_SPARQL_PARSER = threading.Lock()
-"""Held while rdflib parses SPARQL: its pyparsing grammar is shared and not thread-safe (RDFLib/rdflib#1282)."""
 
 
 @dataclass(frozen=True)
@@ -156,9 +156,6 @@ class Shapes:
         the class hierarchy, and the footprint of every SPARQL constraint; None (anything) where a shape is
         ``sh:closed`` or a constraint's query has no footprint. ``validate_change`` walks back only from the
         subjects of changed triples that fall in it: a change of anything else can alter no other node's verdict."""
-        from .footprint import footprint
-        from .history import prefix_block
-
         g = self.graph
         if any(g.objects(None, SH.closed)):
             return None
@@ -265,8 +262,7 @@ class PreparedQueryGraph(rdflib.Graph):
             if prepared is None:
                 if len(self._prepared) > 512:
                     self._prepared.clear()
-                with RDFLIB_SPARQL_PARSER:
-                    prepared = self._prepared[key] = prepareQuery(query_object, initNs=dict(init_ns))
+                prepared = self._prepared[key] = prepare_query(query_object, init_ns)
             query_object = prepared
         return super().query(query_object, *args, **kwargs)
 
@@ -386,13 +382,9 @@ def validate_graph(data: rdflib.Graph, shapes: Shapes) -> Report:
 def validate_change(backend: Backend, change: ChangeSet, shapes: Shapes) -> Report:
     """Validate the candidate state on the nodes ``change`` touches (see the module docstring)."""
     view = CandidateView(backend, change)
-
-    from .footprint import reads
-
     focus: set[Node] = {s for s in change.subjects() if isinstance(s, URIRef)}
     fp = shapes.footprint
-    frontier: set[Node] = {t[0] for t in change.added | change.removed
-                           if isinstance(t[0], URIRef) and reads(fp, {(str(t[1]), str(t[2]))})}
+    frontier: set[Node] = {t[0] for t in change.added | change.removed if isinstance(t[0], URIRef) and reads(fp, pairs([t]))}
     for _ in range(BACKWARD_DEPTH):
         referrers = {t[0] for t in view.incoming(frontier)} - focus
         focus |= referrers

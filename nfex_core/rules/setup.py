@@ -31,7 +31,7 @@ from ..kg.terms import py
 from ..kg.vocab import Vocabulary
 from ..motion import load_step_checks
 from . import pruning
-from .shapes import load_context_shapes
+from .shapes import GraphShapes, load_context_shapes
 from .statements import CompiledStatement, load_statements
 from .types import (
     DEFAULT_ESCALATIONS,
@@ -77,11 +77,13 @@ class Setup:
     min_measurements: int
     measured_rule: bool  # nfex:rule_measured_configuration is enabled
     base: tuple[Decision, ...]  # ``pruned`` holds the statements' and shapes' prunes only
+    graph_shapes: GraphShapes  # the shapes graph's context shapes, compiled: kept by the next read where it can
 
     @classmethod
     def read(cls, kg: KnowledgeGraph, absent: Mapping[str, Citation], previous: Setup | None = None) -> Setup:
         """The configuration at the head; ``previous``: an earlier one, whose rules' contextualised queries and
-        footprints are kept where a rule's text and the contexts are the same."""
+        footprints are kept where a rule's text and the contexts are the same, and whose compiled context shapes
+        are kept for the same shapes graph and vocabulary."""
         version = kg.version
         vocab = kg.vocabulary()
         dims = tuple(vocab.dimensions)
@@ -104,11 +106,14 @@ class Setup:
             except Exception as e:  # a broken rule must not take selection down; each compile reports it
                 queries.append(e)
         statements = load_statements(kg, vocab)
-        shapes, shape_errors = load_context_shapes(kg, vocab, statements)
+        g = kg.shapes().graph
+        graph_shapes = previous.graph_shapes if previous is not None and previous.graph_shapes.of(g, vocab) \
+            else GraphShapes.compile(g, vocab)
+        shapes, shape_errors = load_context_shapes(graph_shapes, statements)
         base = _bases(keys, dims, vocab, statements, shapes)
         return cls(version, vocab, dims, keys, value_iris, rules, tuple(queries), tuple(footprints), tuple(statements), tuple(shapes),
                    tuple(shape_errors), dict(absent), BudgetTerms.load(kg), load_step_checks(kg),
-                   TrustPolicy.load(kg), _min_measurements(kg), _measured_rule_enabled(kg), base)
+                   TrustPolicy.load(kg), _min_measurements(kg), _measured_rule_enabled(kg), base, graph_shapes)
 
     def decision(self, i: int, ruled: Sequence[tuple[str, Citation]]) -> Decision:
         """Context ``keys[i]``'s decision with the SPARQL rules' prunes ``ruled`` (extractor, citation) laid over

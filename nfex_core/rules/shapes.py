@@ -16,6 +16,7 @@ A shape that does not have this form is reported in the table's errors and not c
 """
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import rdflib
@@ -31,7 +32,7 @@ from .statements import CompiledStatement
 from .types import Bound, CompiledShape, ConditionAtom
 
 if TYPE_CHECKING:
-    from ..kg.store import KnowledgeGraph
+    pass
 
 COMPARATORS: dict[URIRef, str] = {
     SH.maxInclusive: "<=",
@@ -204,33 +205,38 @@ def require_as_shape(s: CompiledStatement) -> CompiledShape | None:
     return CompiledShape(s.iri, s.label, s.reason, s.extractor, s.atoms, bound, kind="require", source=s.source)
 
 
-_last: tuple[rdflib.Graph, Vocabulary, list[CompiledShape], list[str]] | None = None  # (graph, vocab, shapes, errors)
+@dataclass(frozen=True)
+class GraphShapes:
+    """The context shapes of one shapes graph, compiled and verified (pySHACL) for one vocabulary, with the
+    errors of the malformed ones. A compile keeps them while the graph and the vocabulary are the same objects
+    (rules/setup.py: KnowledgeGraph carries both over a change that leaves them alone, so an editor's
+    statement toggle compiles no shape again)."""
+
+    graph: rdflib.Graph = field(compare=False, repr=False)
+    vocab: Vocabulary = field(compare=False, repr=False)
+    shapes: tuple[CompiledShape, ...]
+    errors: tuple[str, ...]
+
+    @classmethod
+    def compile(cls, g: rdflib.Graph, vocab: Vocabulary) -> GraphShapes:
+        out: list[CompiledShape] = []
+        errors: list[str] = []
+        for node in context_shape_nodes(g):
+            try:
+                out.append(compile_shape(g, vocab, node))
+            except ShapeFormError as e:
+                errors.append(f"{node}: {e} (docs/shapes.md)")
+        out, unverified = verify_prohibitions(out, vocab, g)
+        return cls(g, vocab, tuple(out), tuple(errors + unverified))
+
+    def of(self, g: rdflib.Graph, vocab: Vocabulary) -> bool:
+        """Whether these are the shapes of ``g`` compiled for ``vocab``."""
+        return self.graph is g and self.vocab is vocab
 
 
-def _graph_shapes(g: rdflib.Graph, vocab: Vocabulary) -> tuple[list[CompiledShape], list[str]]:
-    """The context shapes of shapes graph ``g``, compiled and verified (pySHACL), for ``vocab``: both are kept
-    across versions that leave them alone (KnowledgeGraph carries the same objects), so the last answer is
-    kept for the same two objects — an editor's statement toggle compiles no shape again."""
-    global _last
-    hit = _last
-    if hit is not None and hit[0] is g and hit[1] is vocab:
-        return list(hit[2]), list(hit[3])
-    out: list[CompiledShape] = []
-    errors: list[str] = []
-    for node in context_shape_nodes(g):
-        try:
-            out.append(compile_shape(g, vocab, node))
-        except ShapeFormError as e:
-            errors.append(f"{node}: {e} (docs/shapes.md)")
-    out, unverified = verify_prohibitions(out, vocab, g)
-    errors += unverified
-    _last = (g, vocab, list(out), list(errors))
-    return out, errors
-
-
-def load_context_shapes(kg: KnowledgeGraph, vocab: Vocabulary, statements: list[CompiledStatement]) -> tuple[list[CompiledShape], list[str]]:
+def load_context_shapes(graph_shapes: GraphShapes, statements: list[CompiledStatement]) -> tuple[list[CompiledShape], list[str]]:
     """Every context shape of the graph and every shapeless ``require``; errors for malformed shapes."""
-    out, errors = _graph_shapes(kg.shapes().graph, vocab)
+    out, errors = list(graph_shapes.shapes), list(graph_shapes.errors)
     for s in statements:
         if s.kind == "require" and s.shape is None:
             shape = require_as_shape(s)
