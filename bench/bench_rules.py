@@ -78,7 +78,7 @@ def main() -> None:
     sample = requests[: args.sparql_requests]
 
     def iris(ctx):  # type: ignore[no-untyped-def]
-        return [[vocab.dimensions[d].values[ctx[d]].iri if ctx[d] else None for d in dims]]
+        return [[vocab.dimensions[d].values[ctx[d]].iri if ctx[d] else None] for d in dims]  # one context
 
     def rdflib_parsed(ctx):  # type: ignore[no-untyped-def]
         out = []

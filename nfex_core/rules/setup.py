@@ -88,7 +88,7 @@ class Setup:
         vocab = kg.vocabulary()
         dims = tuple(vocab.dimensions)
         keys = tuple(itertools.product(*[[*vocab.dimensions[d].values, None] for d in dims]))
-        iris = [[vocab.dimensions[d].values[v].iri if v is not None else None for d, v in zip(dims, key, strict=True)] for key in keys]
+        iris = [[*(spec.iri for spec in vocab.dimensions[d].values.values()), None] for d in dims]  # in the order of keys
         rules = tuple(pruning.load_rules(kg))
         value_iris = {(d, v): str(spec.iri) for d in dims for v, spec in vocab.dimensions[d].values.items()}
         known = {r.query: (q, f) for r, q, f in zip(previous.rules, previous.queries, previous.footprints, strict=True)} \

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import pytest
-from rdflib import Literal
+from rdflib import Literal, URIRef
 
 from nfex_core.config import Settings
 from nfex_core.errors import BadInput, ParseError
@@ -122,10 +122,34 @@ def test_a_broken_rule_is_reported_not_fatal(kg: KnowledgeGraph) -> None:
     assert table.decide({}).candidates
 
 
-def test_contextualise_binds_all_contexts_and_projects_ctx() -> None:
+def test_contextualise_binds_all_contexts_and_projects_their_index() -> None:
     q = "PREFIX nfex: <https://w3id.org/nfex#>\nSELECT DISTINCT ?extractor ?reason WHERE { ?extractor ?p ?o }"
-    out = contextualise(q, ["light"], [[None], [Literal("x")]])  # type: ignore[list-item]
-    assert "SELECT DISTINCT ?ctx ?extractor" in out and "VALUES (?ctx ?light) { (0 UNDEF) (1 \"x\") }" in out
+    out = contextualise(q, ["light", "agent"], [[None, Literal("x")], [Literal("a"), Literal("b"), None]])  # type: ignore[list-item]
+    assert "SELECT DISTINCT ?ctx_light ?ctx_agent ?extractor" in out
+    assert 'VALUES (?light ?ctx_light) { (UNDEF 0) ("x" 3) }' in out and 'VALUES (?agent ?ctx_agent) { ("a" 0) ("b" 1) (UNDEF 2) }' in out
+
+
+def test_evaluate_gives_each_context_its_index_in_product_order() -> None:
+    """A rule reading two context variables prunes in exactly the contexts itertools.product numbers as the engine's keys."""
+    import itertools
+
+    from nfex_core.kg.backends import EmbeddedBackend
+    from nfex_core.rules.pruning import SparqlRule, evaluate
+
+    ex = "https://example.org/"
+    store = EmbeddedBackend(None)
+    store.update(f"INSERT DATA {{ <{ex}ORB> <{ex}badUnder> <{ex}dark>, <{ex}car> . <{ex}SIFT> <{ex}badUnder> <{ex}drone> }}")
+    dims = ["light", "agent"]
+    values = [[URIRef(ex + "dark"), URIRef(ex + "bright"), None], [URIRef(ex + "car"), URIRef(ex + "drone"), None]]
+    q = (f"SELECT ?extractor ?reason WHERE {{ ?extractor <{ex}badUnder> ?c . FILTER (?c IN (?light, ?agent)) "
+         'BIND (STR(?c) AS ?reason) }')
+    found = evaluate(store, SparqlRule(URIRef(ex + "r"), "r", q), contextualise(q, dims, values))
+    want: dict[int, set[tuple[str, str]]] = {}
+    for i, (light, agent) in enumerate(itertools.product(*values)):
+        for x, c in ((ex + "ORB", light), (ex + "ORB", agent), (ex + "SIFT", agent)):
+            if c is not None and (x, str(c)) in {(ex + "ORB", ex + "dark"), (ex + "ORB", ex + "car"), (ex + "SIFT", ex + "drone")}:
+                want.setdefault(i, set()).add((x, str(c)))
+    assert {i: {(str(x), r) for x, r in hits} for i, hits in found.items()} == want
 
 
 def test_check_rule() -> None:
