@@ -66,6 +66,9 @@ class Settings(BaseSettings):
     poll_interval_s: float = 0.25  # one head read (~0.5 ms on a loopback `oxigraph serve`) per interval at most
     feedback_batch: int = 64
     feedback_window_ms: float = 20.0
+    # writes' pySHACL runs in a worker process, off the interpreter lock the selections and the compile share
+    # (nfex_core/kg/shacl_process.py; what it buys: bench/bench_fleet.py)
+    shacl_process: bool = True
     # how long a thread may hold the GIL while another waits (Python's default 5 ms): the event loop answering a
     # select waits on the background compile and the commits' validation at most this long per switch
     switch_interval_ms: float = 0.5

@@ -54,6 +54,9 @@ and answer 412 when the head moved."""
 def _warm(app: FastAPI) -> None:
     """Build the advisor's snapshot (vocabulary, compiled rule table) so /readyz means ready to answer."""
     try:
+        kg = app.state.kg
+        if kg.shacl is not None:  # the worker started and handed the shapes before the first write needs them
+            kg.shacl.warm(kg.shapes())
         snap = app.state.advisor.snapshot()
         if app.state.settings.gc_freeze:
             # what start-up built (modules, the vocabulary, shapes) mostly lives as long as the process: out of the
@@ -83,6 +86,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.tokens = TokenBook(settings.parsed_tokens().values())
         app.state.metrics = metrics
         app.state.kg = kg = open_graph(core.store, settings=core)
+        if settings.shacl_process:
+            kg.use_shacl_process()
         app.state.advisor = advisor = Advisor(kg, background=settings.background_compile,
                                               poll_interval_s=max(0.0, settings.poll_interval_s),
                                               compile_pause=max(0.0, settings.compile_pause))

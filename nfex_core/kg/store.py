@@ -44,6 +44,7 @@ from .history import (
     version_iri,
     write_version,
 )
+from .shacl_process import ShaclProcess
 from .sparql_guard import refuse_unsafe_change
 from .sparql_update import change_of_update
 from .terms import Triple, n3, py
@@ -85,6 +86,7 @@ class KnowledgeGraph:
         self._cache_lock = threading.Lock()
         self._vocabulary_footprint: Footprint | None = None  # what loading the vocabulary read (_carry_vocabulary)
         self._listeners: list[Callable[[int], None]] = []
+        self.shacl: ShaclProcess | None = None  # where writes run pySHACL: None, in this process (use_shacl_process)
         self._ensure_head()
 
     # ------------------------------------------------------------------ opening
@@ -96,7 +98,16 @@ class KnowledgeGraph:
         return cls(open_backend(location or settings.store, settings), settings)
 
     def close(self) -> None:
+        if self.shacl is not None:
+            self.shacl.close()
         self.backend.close()
+
+    def use_shacl_process(self) -> ShaclProcess:
+        """Run the pySHACL part of each write's validation in a worker process (shacl_process.py): for a long-running
+        process whose other threads (a service's selections, its background compile) want the interpreter lock too."""
+        if self.shacl is None:
+            self.shacl = ShaclProcess()
+        return self.shacl
 
     def __enter__(self) -> KnowledgeGraph:
         return self
@@ -238,7 +249,7 @@ class KnowledgeGraph:
                 candidate.add(t)
             new_shapes = shapes_in(candidate)
             return validate_graph(candidate, new_shapes)
-        return validate_change(self.backend, change, shapes)
+        return validate_change(self.backend, change, shapes, self.shacl.run if self.shacl is not None else None)
 
     # ------------------------------------------------------------------ writing
     def _present(self, triples: Iterable[Triple]) -> set[Triple]:

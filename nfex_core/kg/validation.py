@@ -28,7 +28,8 @@ from __future__ import annotations
 
 import functools
 import threading
-from collections.abc import Callable, Iterable, Iterator
+import uuid
+from collections.abc import Callable, Collection, Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -140,6 +141,11 @@ class Shapes:
     graph: rdflib.Graph
     nodes: frozenset[Node]
     pyshacl_lock: threading.Lock = field(default_factory=threading.Lock, compare=False, repr=False)
+
+    @functools.cached_property
+    def token(self) -> str:
+        """Names these shapes to a SHACL worker process (shacl_process.py), which keeps their shapes graph."""
+        return uuid.uuid4().hex
 
     @functools.cached_property
     def pyshacl_graph(self) -> _ShapesGraph:
@@ -267,7 +273,7 @@ class PreparedQueryGraph(rdflib.Graph):
         return super().query(query_object, *args, **kwargs)
 
 
-def _as_prepared(data: rdflib.Graph) -> PreparedQueryGraph:
+def _as_prepared(data: Iterable[Triple]) -> PreparedQueryGraph:
     if isinstance(data, PreparedQueryGraph):
         return data
     g = PreparedQueryGraph()
@@ -303,7 +309,7 @@ class _OnFocus:
 
 class _ShapesGraph(ShapesGraph):
     """pySHACL's view of a ``Shapes``, built once (its shape objects and their parsed constraints) rather
-    than once per validation, with the focus of the validation under way (``_run_pyshacl`` sets it)."""
+    than once per validation, with the focus of the validation under way (``run_pyshacl`` sets it)."""
 
     focus: frozenset[Node] | None = None
 
@@ -313,7 +319,7 @@ class _ShapesGraph(ShapesGraph):
         return shapes if self.focus is None else [_OnFocus(s, self.focus) for s in shapes]
 
 
-def _run_pyshacl(data: rdflib.Graph, shapes: Shapes, focus: set[Node] | None) -> tuple[list[ValidationResult], str]:
+def run_pyshacl(data: Iterable[Triple], shapes: Shapes, focus: set[Node] | None) -> tuple[list[ValidationResult], str]:
     """Run pySHACL; with ``focus``, only on the targets among those nodes (``_OnFocus``).
 
     The validator is pySHACL's own (``pyshacl.validate`` builds the same); only its shapes graph is
@@ -374,13 +380,18 @@ def parse_report(results_graph: rdflib.Graph, shapes: rdflib.Graph) -> list[Vali
 
 
 def validate_graph(data: rdflib.Graph, shapes: Shapes) -> Report:
-    results, text = _run_pyshacl(data, shapes, None)
+    results, text = run_pyshacl(data, shapes, None)
     violations = [r for r in results if r.severity == "Violation"]
     return Report(not violations, results, text, data_triples=len(data))
 
 
-def validate_change(backend: Backend, change: ChangeSet, shapes: Shapes) -> Report:
-    """Validate the candidate state on the nodes ``change`` touches (see the module docstring)."""
+Runner = Callable[[Collection[Triple], Shapes, set[Node]], tuple[list[ValidationResult], str]]
+"""What runs pySHACL on a change's neighbourhood: ``run_pyshacl`` here, or a worker process's (shacl_process.py)."""
+
+
+def validate_change(backend: Backend, change: ChangeSet, shapes: Shapes, run: Runner | None = None) -> Report:
+    """Validate the candidate state on the nodes ``change`` touches (see the module docstring); ``run``: where
+    pySHACL runs (default: in this process)."""
     view = CandidateView(backend, change)
     focus: set[Node] = {s for s in change.subjects() if isinstance(s, URIRef)}
     fp = shapes.footprint
@@ -411,12 +422,9 @@ def validate_change(backend: Backend, change: ChangeSet, shapes: Shapes) -> Repo
     data |= {t for t in view.outgoing({t[0] for t in siblings} - reached)}
     data |= view.subclass_axioms()
 
-    g = PreparedQueryGraph()
-    for t in data:
-        g.add(t)
-    results, text = _run_pyshacl(g, shapes, focus)
+    results, text = (run or run_pyshacl)(data, shapes, focus)
     violations = [r for r in results if r.severity == "Violation"]
-    return Report(not violations, results, text, focus_nodes=len(focus), data_triples=len(g))
+    return Report(not violations, results, text, focus_nodes=len(focus), data_triples=len(data))
 
 
 CORE_SHAPE = NFEX.CoreShape

@@ -144,7 +144,7 @@ def verify_prohibitions(shapes: list[CompiledShape], vocab: Vocabulary, graph: r
     A requirement that reads no setting is compiled as "prune wherever the gate holds"; this checks the
     claim on one candidate per extractor (defaults) in one context where the gate holds.
     """
-    from ..kg.validation import _run_pyshacl, shapes_closure
+    from ..kg.validation import run_pyshacl, shapes_closure
 
     kept: list[CompiledShape] = []
     errors: list[str] = []
@@ -161,7 +161,7 @@ def verify_prohibitions(shapes: list[CompiledShape], vocab: Vocabulary, graph: r
                 nodes.add(str(node))
                 data += materialise(vocab, x, spec.defaults(), ctx, node)
         closure = shapes_closure({s.iri}, lambda ns: (t for n in ns for t in graph.triples((n, None, None))))
-        results, _ = _run_pyshacl(data, closure, None)
+        results, _ = run_pyshacl(data, closure, None)
         missed = nodes - {r.focus_node for r in results if r.source_shape == str(s.iri)}
         if missed:
             errors.append(

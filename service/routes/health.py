@@ -34,6 +34,8 @@ def readyz(request: Request, kg: KGDep) -> JSONResponse:
         "store": kg.location,
         "torch_loaded": "torch" in sys.modules,
     }
+    if kg.shacl is not None:
+        body["shacl_process"] = kg.shacl.status()
     if state.warmup_error is not None:
         body.update(status="failed", detail=state.warmup_error)
     snap = state.advisor.current_snapshot()

@@ -63,6 +63,12 @@ class BackendStatus(Out):
     setting: str | None = Field(None, description="The setting that would change it (e.g. NFEX_XFEAT_WEIGHTS).")
 
 
+class ShaclProcessStatus(Out):
+    running: bool = Field(..., description="A worker process is up.")
+    starts: int = Field(..., description="Workers started so far (one more after each that died).")
+    fallbacks: int = Field(..., description="Validations that ran in the service's process because the worker died during them.")
+
+
 class Ready(Out):
     status: str = Field(..., description="ready | starting | failed")
     graph_version: int
@@ -72,6 +78,8 @@ class Ready(Out):
     rule_table: RuleTable | None = None
     backends: dict[str, BackendStatus] | None = Field(
         None, description="Per extractor backend the graph uses: whether it can run here and, if not, why.")
+    shacl_process: ShaclProcessStatus | None = Field(
+        None, description="Where writes run pySHACL: a worker process (NFEX_SHACL_PROCESS), absent when in this one.")
 
 
 # -- vocabulary

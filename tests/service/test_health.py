@@ -20,6 +20,7 @@ def test_health_readiness_and_vocabulary(service: Service) -> None:
     assert ready["status"] == "ready" and ready["graph_version"] >= 1
     assert ready["torch_loaded"] is False  # readiness never waits on importing torch
     assert ready["rule_table"]["contexts"] > 0
+    assert ready["shacl_process"] == {"running": True, "starts": 1, "fallbacks": 0}  # started by the warm-up
     vocab = httpx.get(service.url + "/v1/vocabulary").json()
     assert vocab["context"]["light"]["values"] == ["dark", "bright"]
     assert set(vocab["extractors"]) == {"ORB", "ORB_GRID", "SIFT", "AKAZE", "BRISK", "XFEAT"}
@@ -110,7 +111,7 @@ def test_the_warm_up_freezes_what_start_up_built(freeze: bool) -> None:
     from service.main import _warm
 
     snap = SimpleNamespace(version=7)
-    state = SimpleNamespace(settings=Settings(gc_freeze=freeze), advisor=SimpleNamespace(snapshot=lambda: snap),
+    state = SimpleNamespace(settings=Settings(gc_freeze=freeze), advisor=SimpleNamespace(snapshot=lambda: snap), kg=SimpleNamespace(shacl=None),
                             ready=threading.Event())
     gc.unfreeze()
     try:

@@ -277,6 +277,7 @@ class Ready(TypedDict):
     detail: NotRequired[str | None]
     rule_table: NotRequired[RuleTable | None]
     backends: NotRequired[dict[str, BackendStatus] | None]
+    shacl_process: NotRequired[ShaclProcessStatus | None]
 
 
 class Report(TypedDict):
@@ -367,6 +368,12 @@ class SessionSelection(TypedDict):
     reused: NotRequired[int]
     keypoints: NotRequired[Keypoints | None]
     session: StreamPosition
+
+
+class ShaclProcessStatus(TypedDict):
+    running: bool
+    starts: int
+    fallbacks: int
 
 
 class SparqlBindings(TypedDict):
@@ -471,4 +478,4 @@ class WriteResult(TypedDict):
     iri: NotRequired[str | None]
 
 
-__all__ = ['AcceptRule', 'Adjustment', 'BackendStatus', 'Budget', 'Candidate', 'Citation', 'ConditionValue', 'Conditions', 'ContextEntry', 'Diff', 'Dimension', 'DimensionValues', 'Evidence', 'Extractor', 'ExtractorBrief', 'ExtractorList', 'Grid', 'Head', 'Health', 'Keypoints', 'MeasuredConfiguration', 'MetricBrief', 'ModelInfo', 'OpenCV', 'Parameter', 'ParameterBrief', 'Problem', 'Program', 'ProgramInfo', 'ProgramList', 'Proposal', 'Pruned', 'Ready', 'Report', 'ReportList', 'Rule', 'RuleList', 'RuleTable', 'Selection', 'Session', 'SessionSelection', 'SparqlBindings', 'SparqlHead', 'SparqlResults', 'StreamPosition', 'Verdict', 'Verification', 'VersionChanges', 'VersionInfo', 'VersionList', 'Versions', 'Vocabulary', 'Weight', 'WriteResult']
+__all__ = ['AcceptRule', 'Adjustment', 'BackendStatus', 'Budget', 'Candidate', 'Citation', 'ConditionValue', 'Conditions', 'ContextEntry', 'Diff', 'Dimension', 'DimensionValues', 'Evidence', 'Extractor', 'ExtractorBrief', 'ExtractorList', 'Grid', 'Head', 'Health', 'Keypoints', 'MeasuredConfiguration', 'MetricBrief', 'ModelInfo', 'OpenCV', 'Parameter', 'ParameterBrief', 'Problem', 'Program', 'ProgramInfo', 'ProgramList', 'Proposal', 'Pruned', 'Ready', 'Report', 'ReportList', 'Rule', 'RuleList', 'RuleTable', 'Selection', 'Session', 'SessionSelection', 'ShaclProcessStatus', 'SparqlBindings', 'SparqlHead', 'SparqlResults', 'StreamPosition', 'Verdict', 'Verification', 'VersionChanges', 'VersionInfo', 'VersionList', 'Versions', 'Vocabulary', 'Weight', 'WriteResult']

@@ -176,18 +176,18 @@ ex:c a ex:Thing ; ex:size 3 .
 def test_a_focused_validation_checks_nested_shapes_and_only_its_focus() -> None:
     """Regression: pySHACL's own focus_nodes option lets an sh:or over a literal, or an sh:node on a value that
     is not a focus node, pass vacuously; the focus here narrows only the top-level targets."""
-    from nfex_core.kg.validation import _run_pyshacl, shapes_in
+    from nfex_core.kg.validation import run_pyshacl, shapes_in
 
     shapes = shapes_in(parse_rdf(NESTED))
     data = parse_rdf(DATA)
     ex = "https://example.org/"
-    whole, _ = _run_pyshacl(data, shapes, None)
+    whole, _ = run_pyshacl(data, shapes, None)
     # pySHACL reports the nested sh:node violation twice: on the Thing, and as its detail on the part
     assert {(r.focus_node, r.path) for r in whole} == {(ex + n, ex + p) for n in "ab" for p in ("size", "part")} | {
         (ex + "pa", ex + "label"), (ex + "pb", ex + "label")}
-    focused, text = _run_pyshacl(data, shapes, {URIRef(ex + "a"), URIRef(ex + "pa"), URIRef(ex + "c")})
+    focused, text = run_pyshacl(data, shapes, {URIRef(ex + "a"), URIRef(ex + "pa"), URIRef(ex + "c")})
     assert {(r.focus_node, r.path) for r in focused} == {(ex + "a", ex + "size"), (ex + "a", ex + "part"), (ex + "pa", ex + "label")}
     assert focused == [r for r in whole if r.focus_node in (ex + "a", ex + "pa")]
     assert "Conforms: False" in text
-    assert _run_pyshacl(data, shapes, {URIRef(ex + "c"), URIRef(ex + "pb")})[0] == []  # pb is b's part: b is not in focus
-    assert _run_pyshacl(data, shapes, None)[0] == whole  # the kept shapes graph is not left focused
+    assert run_pyshacl(data, shapes, {URIRef(ex + "c"), URIRef(ex + "pb")})[0] == []  # pb is b's part: b is not in focus
+    assert run_pyshacl(data, shapes, None)[0] == whole  # the kept shapes graph is not left focused

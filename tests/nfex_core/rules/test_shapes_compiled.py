@@ -16,7 +16,7 @@ import rdflib
 from rdflib.term import URIRef
 
 from nfex_core.kg import KnowledgeGraph
-from nfex_core.kg.validation import Shapes, _run_pyshacl, shapes_closure
+from nfex_core.kg.validation import Shapes, run_pyshacl, shapes_closure
 from nfex_core.kg.vocab import ParameterSpec, Value, Vocabulary
 from nfex_core.rules.engine import compile_table
 from nfex_core.rules.shape_check import enforce, materialise, violations
@@ -60,7 +60,7 @@ def pyshacl_verdicts(data_graphs: list[rdflib.Graph], shapes: Shapes, batch: int
         data = rdflib.Graph()
         for g in data_graphs[i : i + batch]:
             data += g
-        results, _ = _run_pyshacl(data, shapes, None)
+        results, _ = run_pyshacl(data, shapes, None)
         for r in results:
             out.setdefault(r.focus_node, set()).add(r.source_shape)
     return out
