@@ -4,13 +4,20 @@ Each commit pays a fixed price — reading the head, checking which triples are 
 nodes, the guarded update, and, in the service, the rule table's recompile that every new version triggers.
 A fleet of clients reporting per window pays it per report; ``Batcher`` lets them pay it per batch:
 
-    submit(item) ─► queue ─► one flusher thread: waits until ``max_items`` are queued or ``window_s`` has
-                             passed since the oldest queued item arrived, then ``flush(items)`` ─► each
-                             ``submit`` returns its own result (or raises its own exception)
+    submit(item) ─► queue ─► one flusher thread: a batch opens when its first item can be taken (it arrived,
+                             and the last flush has ended) and closes when ``max_items`` are queued, when
+                             ``window_s`` has passed since it opened, or when no item has arrived for
+                             ``quiet_s`` (counted from the opening at the earliest); then ``flush(items)`` ─►
+                             each ``submit`` returns its own result (or raises its own exception)
 
 A caller returns only after ``flush`` returned, i.e. after its batch is committed (durable). One flush
-runs at a time; items that arrive during a flush form the next batch (and, being older than the window by
-then, go at once), so under load batches grow by themselves and alone an item waits at most ``window_s``.
+runs at a time; items that arrive during a flush join the next batch, which opens when the flush ends: the
+callers that flush just answered can then join it too, as a fleet's clients do, each posting its next report
+when the last is answered. (Counting the window from the oldest item's arrival instead sent the items queued
+during a flush off at once, without them: four clients split into batches of three and one, two commits per
+round — bench/bench_fleet.py.) ``quiet_s`` (default a quarter of the window) closes a batch once arrivals
+pause, so a lone item waits ``quiet_s``, not the whole window; under a steady stream batches still grow to
+``window_s`` or ``max_items``. An item waits at most the flush under way plus ``window_s``.
 What a batch means — one ``KnowledgeGraph.commit`` of the union, and what happens when it is rejected — is
 ``flush``'s business (``nfex_core.feedback.ReportWriter``); this module only gathers and hands back.
 """
@@ -37,15 +44,19 @@ class _Slot(Generic[T]):
 
 class Batcher(Generic[T, R]):
     """``flush(items)`` returns one result or exception per item, in order; ``max_items`` ≥ 1 bounds a batch
-    (1: every item alone), ``window_s`` ≥ 0 how long the oldest queued item waits for others."""
+    (1: every item alone), ``window_s`` ≥ 0 how long a batch stays open at most, ``quiet_s`` ≥ 0 (default
+    ``window_s / 4``) how long it waits for a next item (the module's docstring)."""
 
     def __init__(self, flush: Callable[[Sequence[T]], Sequence[R | BaseException]], *, max_items: int = 64,
-                 window_s: float = 0.02, name: str = "nfex-batch") -> None:
-        if max_items < 1 or window_s < 0:
-            raise ValueError(f"a batch needs max_items >= 1 and window_s >= 0, got {max_items} and {window_s}")
+                 window_s: float = 0.02, quiet_s: float | None = None, name: str = "nfex-batch") -> None:
+        quiet_s = window_s / 4 if quiet_s is None else quiet_s
+        if max_items < 1 or window_s < 0 or quiet_s < 0:
+            raise ValueError(f"a batch needs max_items >= 1, window_s >= 0 and quiet_s >= 0, got {max_items}, {window_s} and {quiet_s}")
         self._flush = flush
         self.max_items = max_items
         self.window_s = window_s
+        self.quiet_s = quiet_s
+        self._free_since = float("-inf")  # when the last flush ended: no batch opens before
         self.name = name
         self.batches = 0  # flushes so far, and the items they carried (for tests and /metrics)
         self.items = 0
@@ -74,7 +85,9 @@ class Batcher(Generic[T, R]):
         """The next batch (empty when none is queued: the flusher then ends)."""
         with self._cond:
             while self._queue and len(self._queue) < self.max_items:
-                left = self._queue[0].arrived + self.window_s - time.monotonic()
+                opened = max(self._queue[0].arrived, self._free_since)
+                closes = min(opened + self.window_s, max(self._queue[-1].arrived, opened) + self.quiet_s)
+                left = closes - time.monotonic()
                 if left <= 0:
                     break
                 self._cond.wait(left)
@@ -92,6 +105,7 @@ class Batcher(Generic[T, R]):
                     raise RuntimeError(f"{self.name}: flush returned {len(results)} results for {len(batch)} items")
             except BaseException as e:  # the whole batch failed (e.g. the store went away): every caller hears it
                 results = [e] * len(batch)
+            self._free_since = time.monotonic()
             self.batches += 1
             self.items += len(batch)
             for slot, r in zip(batch, results, strict=True):

@@ -44,6 +44,42 @@ def test_items_queued_during_a_flush_form_one_batch_and_each_caller_gets_its_own
     assert batches == [[0], list(range(10, 21))] and batcher.batches == 2 and batcher.items == 12
 
 
+def test_the_callers_a_flush_answered_join_the_items_queued_during_it() -> None:
+    """A batch opens when the last flush ends: a fleet's clients, each posting again once answered, join the
+    reports that queued meanwhile instead of those going off alone (three and one, round after round)."""
+    gate = threading.Event()
+    started = threading.Event()
+    batches: list[list[int]] = []
+
+    def flush(items: Sequence[int]) -> list[int | BaseException]:
+        batches.append(list(items))
+        started.set()
+        if len(batches) == 1:
+            assert gate.wait(10)
+        return list(items)
+
+    batcher: Batcher[int, int] = Batcher(flush, max_items=64, window_s=5.0, quiet_s=0.5)
+
+    def client(i: int) -> int:  # answered, it reports again at once
+        return batcher.submit(i) + batcher.submit(i + 100)
+
+    with ThreadPoolExecutor(2) as pool:
+        first = pool.submit(client, 1)
+        assert started.wait(5)
+        queued = pool.submit(batcher.submit, 2)  # arrives while the first batch is being flushed
+        while len(batcher._queue) < 1:  # noqa: SLF001 - the test waits until it is queued
+            threading.Event().wait(0.005)
+        gate.set()
+        assert first.result(10) == 1 + 101 and queued.result(10) == 2
+    assert batches == [[1], [2, 101]]
+
+
+def test_a_lone_item_waits_for_the_quiet_spell_not_the_window() -> None:
+    batcher: Batcher[int, int] = Batcher(list, max_items=64, window_s=60.0, quiet_s=0.01)
+    with ThreadPoolExecutor(1) as pool:
+        assert pool.submit(batcher.submit, 7).result(30) == 7  # a minute's window would time this out
+
+
 def test_a_batch_is_bounded_by_count() -> None:
     seen: list[int] = []
     batcher: Batcher[int, int] = Batcher(lambda items: (seen.append(len(items)), list(items))[1], max_items=3, window_s=0.5)
