@@ -78,14 +78,23 @@ def from_oxigraph(term: object, *, as_written: bool = False) -> Node:
     raise TypeError(f"unsupported term {term!r}")
 
 
+_CONVERTED: dict[bool, dict[object, Node]] = {False: {}, True: {}}  # term_converter's memo, per as_written
+CONVERTED_MAX = 100_000  # terms remembered per mode (tens of MB at most); then the memo starts again
+
+
 def term_converter(*, as_written: bool = False) -> Callable[[object], Node]:
-    """``from_oxigraph`` that converts each distinct term once: for the terms of one result, where the same
-    predicates, classes, extractors and reasons repeat row after row."""
-    terms: dict[object, Node] = {}
+    """``from_oxigraph`` that converts each distinct term once, for the life of the process: the same predicates,
+    classes, extractors, parameters and reasons come back row after row and read after read (a commit's
+    validation reads its configuration's neighbourhood again; a compile, the same rules' answers), and rdflib's
+    term constructors (``plain`` builds a literal twice) were most of a read's time. rdflib terms are immutable,
+    so sharing them is safe; a full memo is emptied, not evicted term by term."""
+    terms = _CONVERTED[as_written]
 
     def convert(term: object) -> Node:
         found = terms.get(term)
         if found is None:
+            if len(terms) >= CONVERTED_MAX:
+                terms.clear()
             found = terms[term] = from_oxigraph(term, as_written=as_written)
         return found
 
