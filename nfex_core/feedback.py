@@ -87,8 +87,10 @@ def configuration_graph(vocab: Vocabulary, extractor: str, params: dict[str, Any
     return g, cfg
 
 
-def measurement_graph(vocab: Vocabulary, fb: Feedback, *, run_exists: bool = False, now: datetime | None = None) -> tuple[rdflib.Graph, URIRef]:
-    """The Measurement for ``fb`` with its configuration, sequence, run and agent."""
+def measurement_graph(vocab: Vocabulary, fb: Feedback, *, run_exists: bool = False, now: datetime | None = None,
+                      configuration: bool = True) -> tuple[rdflib.Graph, URIRef]:
+    """The Measurement for ``fb`` with its configuration, sequence, run and agent (``configuration=False``: the
+    configuration's own triples left out, for a writer that has them already: ``ReportWriter``)."""
     now = now or datetime.now(UTC)
     context = vocab.check_context(fb.context)
     frames = fb.frames
@@ -104,7 +106,11 @@ def measurement_graph(vocab: Vocabulary, fb: Feedback, *, run_exists: bool = Fal
     if all(v is None for v in measured):
         raise BadInput("feedback must report at least one of ate_rmse, rpe_rmse, tracking_lost, tracking_failed, mean_inliers, mean_matches")
 
-    g, cfg = configuration_graph(vocab, fb.extractor, fb.params)
+    if configuration:
+        g, cfg = configuration_graph(vocab, fb.extractor, fb.params)
+    else:
+        spec = vocab.extractor(fb.extractor)
+        g, cfg = rdflib.Graph(), identity.configuration_iri(spec.name, spec.resolve(fb.params))
     m = identity.measurement_iri()
     seq = records.sequence_triples(g, fb.dataset, fb.sequence)  # the sweeps' node for the same sequence
     agent = identity.reporter_iri(fb.reporter)
@@ -170,6 +176,8 @@ class ReportWriter:
 
     def __init__(self, kg: KnowledgeGraph, *, max_items: int = 64, window_s: float = 0.02) -> None:
         self.kg = kg
+        # a fleet reports the same few configurations over and over: their triples, made once per vocabulary
+        self._configurations: tuple[Vocabulary | None, dict[URIRef, frozenset[Any]]] = (None, {})
         self.batcher: Batcher[Feedback, Written] = Batcher(self._commit, max_items=max_items, window_s=window_s,
                                                            name="nfex-feedback")
 
@@ -184,10 +192,11 @@ class ReportWriter:
         now = datetime.now(UTC)  # one time for the batch: reports of one new run write identical run triples
         vocab = self.kg.vocabulary()
         existing = self._existing_runs({feedback_run_iri(fb, now) for fb in reports})
-        built: list[tuple[rdflib.Graph, URIRef] | BaseException] = []
+        built: list[tuple[frozenset[Any], URIRef] | BaseException] = []
         for fb in reports:
             try:
-                built.append(measurement_graph(vocab, fb, run_exists=feedback_run_iri(fb, now) in existing, now=now))
+                g, m = measurement_graph(vocab, fb, run_exists=feedback_run_iri(fb, now) in existing, now=now, configuration=False)
+                built.append((graph_triples(g) | self._configuration(vocab, fb), m))
             except NfexError as e:  # bad input fails alone, before anything is written
                 built.append(e)
         good = [(i, b) for i, b in enumerate(built) if not isinstance(b, BaseException)]
@@ -203,7 +212,7 @@ class ReportWriter:
             # find the offenders: each report checked alone (no write), the others committed together again
             passing = []
             for i, (g, iri) in good:
-                report = self.kg.check(ChangeSet.adding(graph_triples(g)))
+                report = self.kg.check(ChangeSet.adding(g))
                 if report.conforms:
                     passing.append((i, (g, iri)))
                 else:
@@ -218,7 +227,22 @@ class ReportWriter:
                         out[i] = err
         return out
 
-    def _commit_together(self, reports: Sequence[Feedback], items: Sequence[tuple[int, tuple[rdflib.Graph, URIRef]]],
+    def _configuration(self, vocab: Vocabulary, fb: Feedback) -> frozenset[Any]:
+        """The triples of ``fb``'s configuration (``configuration_graph``), kept per IRI while the vocabulary is the same."""
+        known, made = self._configurations
+        if known is not vocab:
+            made = {}
+            self._configurations = (vocab, made)
+        spec = vocab.extractor(fb.extractor)
+        iri = identity.configuration_iri(spec.name, spec.resolve(fb.params))
+        found = made.get(iri)
+        if found is None:
+            if len(made) >= 1024:  # a bound, not a policy: thousands of distinct Θ in a stream are made again
+                made.clear()
+            found = made[iri] = graph_triples(configuration_graph(vocab, fb.extractor, fb.params)[0])
+        return found
+
+    def _commit_together(self, reports: Sequence[Feedback], items: Sequence[tuple[int, tuple[frozenset[Any], URIRef]]],
                          out: list[Written | BaseException]) -> None:
         if not items:
             return
@@ -226,10 +250,10 @@ class ReportWriter:
         for i, (g, iri) in items:
             out[i] = Written(iri, CommitResult(result.version, result.changed, added=len(g)))
 
-    def _commit_graphs(self, reports: Sequence[Feedback], graphs: Sequence[rdflib.Graph]) -> CommitResult:
+    def _commit_graphs(self, reports: Sequence[Feedback], graphs: Sequence[frozenset[Any]]) -> CommitResult:
         triples: set[Any] = set()
         for g in graphs:
-            triples |= graph_triples(g)
+            triples |= g
         authors = sorted({fb.reporter for fb in reports})
         if len(reports) == 1:
             message = f"feedback: {reports[0].extractor} on {reports[0].sequence}"
