@@ -180,6 +180,14 @@ class EmbeddedBackend(Backend):
         except SyntaxError as e:
             raise ParseError(f"invalid SPARQL query: {e}") from e
 
+    def solutions(self, query: str) -> ox.QuerySolutions:
+        """A SELECT's answer as Oxigraph gives it, terms unconverted: for a reader of many rows that needs a few
+        strings of each (the rule engine's ``pruning.evaluate``), where ``select``'s rdflib terms cost most."""
+        res = self._run(query)
+        if not isinstance(res, ox.QuerySolutions):
+            raise BadInput("expected a SELECT query")
+        return res
+
     def select(self, query: str) -> SelectResult:
         res = self._run(query)
         if not isinstance(res, ox.QuerySolutions):

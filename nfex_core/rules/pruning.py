@@ -28,10 +28,10 @@ from rdflib.term import Literal, URIRef
 from ..config import Settings
 from ..errors import BadInput, ParseError
 from ..identity import rule_iri
-from ..kg.backends import Backend
+from ..kg.backends import EmbeddedBackend
 from ..kg.changes import read_rdf_file
 from ..kg.sparql_guard import refuse_unsafe_query
-from ..kg.terms import n3, py
+from ..kg.terms import n3
 from ..namespaces import NFEX
 
 if TYPE_CHECKING:
@@ -155,16 +155,25 @@ def check_rule(query: str, dimensions: Sequence[str]) -> None:
         raise BadInput(f"a pruning rule must select ?extractor and ?reason; missing: {', '.join(sorted('?' + m for m in missing))}")
 
 
-def evaluate(backend: Backend, rule: SparqlRule, query: str) -> dict[int, list[tuple[URIRef, str]]]:
+def evaluate(backend: EmbeddedBackend, rule: SparqlRule, query: str) -> dict[int, list[tuple[URIRef, str]]]:
     """For each context index, the extractors ``rule`` prunes with their reasons: ``query`` is the rule
-    contextualised for the contexts (``contextualise``), evaluated on ``backend`` (the rule engine passes
-    the evidence view, evidence/view.py)."""
+    contextualised for the contexts (``contextualise``), evaluated on ``backend`` (the rule engine's evidence
+    view, evidence/view.py, an in-memory store). A rule prunes in many contexts at once (hundreds of rows, each
+    its context's index, extractor and reason), so the rows are read as Oxigraph gives them, not as rdflib
+    terms; an ``?extractor`` that is not an IRI is passed over."""
     refuse_unsafe_query(rule.query)  # a rule stored by a raw update was never checked
-    rows = backend.select(query).rows
+    res = backend.solutions(query)
+    index = [v.value for v in res.variables if v.value.startswith(CONTEXT_INDEX)]
+    extractors: dict[str, URIRef] = {}
     out: dict[int, list[tuple[URIRef, str]]] = {}
-    for r in rows:
-        if "extractor" not in r or not isinstance(r["extractor"], URIRef):
+    for sol in res:
+        x = sol["extractor"]
+        if not isinstance(x, ox.NamedNode):
             continue
-        i = sum(int(py(v)) for k, v in r.items() if k.startswith(CONTEXT_INDEX))
-        out.setdefault(i, []).append((r["extractor"], str(r.get("reason", rule.label))))
+        iri = extractors.get(x.value)
+        if iri is None:
+            iri = extractors[x.value] = URIRef(x.value)
+        reason = sol["reason"]
+        i = sum(int(sol[v].value) for v in index)  # VALUES binds every index variable
+        out.setdefault(i, []).append((iri, reason.value if reason is not None else rule.label))
     return out
