@@ -5,19 +5,21 @@ nodes, the guarded update, and, in the service, the rule table's recompile that 
 A fleet of clients reporting per window pays it per report; ``Batcher`` lets them pay it per batch:
 
     submit(item) ─► queue ─► one flusher thread: a batch opens when its first item can be taken (it arrived,
-                             and the last flush has ended) and closes when ``max_items`` are queued, when
-                             ``window_s`` has passed since it opened, or when no item has arrived for
-                             ``quiet_s`` (counted from the opening at the earliest); then ``flush(items)`` ─►
-                             each ``submit`` returns its own result (or raises its own exception)
+                             and the last flush has ended) and closes as soon as it holds the items expected,
+                             else when ``window_s`` has passed since it opened (or at ``max_items``); then
+                             ``flush(items)`` ─► each ``submit`` returns its own result (or raises its own)
 
-A caller returns only after ``flush`` returned, i.e. after its batch is committed (durable). One flush
-runs at a time; items that arrive during a flush join the next batch, which opens when the flush ends: the
-callers that flush just answered can then join it too, as a fleet's clients do, each posting its next report
-when the last is answered. (Counting the window from the oldest item's arrival instead sent the items queued
-during a flush off at once, without them: four clients split into batches of three and one, two commits per
-round — bench/bench_fleet.py.) ``quiet_s`` (default a quarter of the window) closes a batch once arrivals
-pause, so a lone item waits ``quiet_s``, not the whole window; under a steady stream batches still grow to
-``window_s`` or ``max_items``. An item waits at most the flush under way plus ``window_s``.
+A caller returns only after ``flush`` returned, i.e. after its batch is committed (durable). One flush runs at
+a time; items that arrive during a flush join the next batch, which opens when the flush ends, so the callers
+that flush just answered can join it too — a fleet's clients each post their next report when the last is
+answered. The items *expected* are those callers plus the items already waiting when it ended: everyone in the
+system then. So four clients make batches of four that close as soon as the fourth arrives, a lone client's
+report goes at once, and a fleet that grows or shrinks is followed within a batch (one that shrinks costs one
+wait of ``window_s``). Closing on a window alone kept every batch open for the whole window; counting the
+window from the oldest item's arrival sent the items queued during a flush off at once, without the callers
+it answered — four clients split into batches of three and one, two commits a round (bench/bench_fleet.py);
+closing once arrivals paused for a few ms split them the same way whenever a client was late. An item waits at
+most the flush under way plus ``window_s``.
 What a batch means — one ``KnowledgeGraph.commit`` of the union, and what happens when it is rejected — is
 ``flush``'s business (``nfex_core.feedback.ReportWriter``); this module only gathers and hands back.
 """
@@ -44,19 +46,18 @@ class _Slot(Generic[T]):
 
 class Batcher(Generic[T, R]):
     """``flush(items)`` returns one result or exception per item, in order; ``max_items`` ≥ 1 bounds a batch
-    (1: every item alone), ``window_s`` ≥ 0 how long a batch stays open at most, ``quiet_s`` ≥ 0 (default
-    ``window_s / 4``) how long it waits for a next item (the module's docstring)."""
+    (1: every item alone), ``window_s`` ≥ 0 how long a batch waits at most for the items it expects (the
+    module's docstring)."""
 
     def __init__(self, flush: Callable[[Sequence[T]], Sequence[R | BaseException]], *, max_items: int = 64,
-                 window_s: float = 0.02, quiet_s: float | None = None, name: str = "nfex-batch") -> None:
-        quiet_s = window_s / 4 if quiet_s is None else quiet_s
-        if max_items < 1 or window_s < 0 or quiet_s < 0:
-            raise ValueError(f"a batch needs max_items >= 1, window_s >= 0 and quiet_s >= 0, got {max_items}, {window_s} and {quiet_s}")
+                 window_s: float = 0.02, name: str = "nfex-batch") -> None:
+        if max_items < 1 or window_s < 0:
+            raise ValueError(f"a batch needs max_items >= 1 and window_s >= 0, got {max_items} and {window_s}")
         self._flush = flush
         self.max_items = max_items
         self.window_s = window_s
-        self.quiet_s = quiet_s
         self._free_since = float("-inf")  # when the last flush ended: no batch opens before
+        self._expected = 1  # the next batch's size, once this many are queued it closes (the module's docstring)
         self.name = name
         self.batches = 0  # flushes so far, and the items they carried (for tests and /metrics)
         self.items = 0
@@ -84,10 +85,8 @@ class Batcher(Generic[T, R]):
     def _take(self) -> list[_Slot[T]]:
         """The next batch (empty when none is queued: the flusher then ends)."""
         with self._cond:
-            while self._queue and len(self._queue) < self.max_items:
-                opened = max(self._queue[0].arrived, self._free_since)
-                closes = min(opened + self.window_s, max(self._queue[-1].arrived, opened) + self.quiet_s)
-                left = closes - time.monotonic()
+            while self._queue and len(self._queue) < min(self._expected, self.max_items):
+                left = max(self._queue[0].arrived, self._free_since) + self.window_s - time.monotonic()
                 if left <= 0:
                     break
                 self._cond.wait(left)
@@ -105,7 +104,9 @@ class Batcher(Generic[T, R]):
                     raise RuntimeError(f"{self.name}: flush returned {len(results)} results for {len(batch)} items")
             except BaseException as e:  # the whole batch failed (e.g. the store went away): every caller hears it
                 results = [e] * len(batch)
-            self._free_since = time.monotonic()
+            with self._cond:
+                self._free_since = time.monotonic()
+                self._expected = max(1, len(batch) + len(self._queue))  # its callers may come back; the waiting will go
             self.batches += 1
             self.items += len(batch)
             for slot, r in zip(batch, results, strict=True):

@@ -45,8 +45,9 @@ def test_items_queued_during_a_flush_form_one_batch_and_each_caller_gets_its_own
 
 
 def test_the_callers_a_flush_answered_join_the_items_queued_during_it() -> None:
-    """A batch opens when the last flush ends: a fleet's clients, each posting again once answered, join the
-    reports that queued meanwhile instead of those going off alone (three and one, round after round)."""
+    """A batch opens when the last flush ends and expects the callers it answered and the items waiting: a fleet's
+    clients, each posting again once answered, join the reports that queued meanwhile instead of those going off
+    alone (three and one, round after round), and the batch goes as soon as they are in, not after the window."""
     gate = threading.Event()
     started = threading.Event()
     batches: list[list[int]] = []
@@ -58,7 +59,7 @@ def test_the_callers_a_flush_answered_join_the_items_queued_during_it() -> None:
             assert gate.wait(10)
         return list(items)
 
-    batcher: Batcher[int, int] = Batcher(flush, max_items=64, window_s=5.0, quiet_s=0.5)
+    batcher: Batcher[int, int] = Batcher(flush, max_items=64, window_s=60.0)  # a minute: the results would time out
 
     def client(i: int) -> int:  # answered, it reports again at once
         return batcher.submit(i) + batcher.submit(i + 100)
@@ -74,8 +75,32 @@ def test_the_callers_a_flush_answered_join_the_items_queued_during_it() -> None:
     assert batches == [[1], [2, 101]]
 
 
-def test_a_lone_item_waits_for_the_quiet_spell_not_the_window() -> None:
-    batcher: Batcher[int, int] = Batcher(list, max_items=64, window_s=60.0, quiet_s=0.01)
+def test_a_caller_that_does_not_come_back_costs_one_window() -> None:
+    gate = threading.Event()
+    started = threading.Event()
+    batches: list[list[int]] = []
+
+    def flush(items: Sequence[int]) -> list[int | BaseException]:
+        batches.append(list(items))
+        started.set()
+        assert gate.wait(10)
+        return list(items)
+
+    batcher: Batcher[int, int] = Batcher(flush, max_items=64, window_s=0.2)
+    with ThreadPoolExecutor(2) as pool:
+        first = pool.submit(batcher.submit, 1)
+        assert started.wait(5)
+        second = pool.submit(batcher.submit, 2)
+        while len(batcher._queue) < 1:  # noqa: SLF001 - the test waits until it is queued
+            threading.Event().wait(0.005)
+        gate.set()
+        assert first.result(10) == 1 and second.result(10) == 2  # 2 expected 1 to come back: it went after the window
+        assert batcher._expected == 1  # noqa: SLF001 - and the next batch expects one again
+    assert batches == [[1], [2]]
+
+
+def test_a_lone_item_goes_at_once() -> None:
+    batcher: Batcher[int, int] = Batcher(list, max_items=64, window_s=60.0)
     with ThreadPoolExecutor(1) as pool:
         assert pool.submit(batcher.submit, 7).result(30) == 7  # a minute's window would time this out
 
