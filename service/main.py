@@ -54,9 +54,6 @@ and answer 412 when the head moved."""
 def _warm(app: FastAPI) -> None:
     """Build the advisor's snapshot (vocabulary, compiled rule table) so /readyz means ready to answer."""
     try:
-        kg = app.state.kg
-        if kg.shacl is not None:  # the worker started and handed the shapes before the first write needs them
-            kg.shacl.warm(kg.shapes())
         snap = app.state.advisor.snapshot()
         if app.state.settings.gc_freeze:
             # what start-up built (modules, the vocabulary, shapes) mostly lives as long as the process: out of the
@@ -69,6 +66,13 @@ def _warm(app: FastAPI) -> None:
     except Exception as e:  # reported by /readyz
         app.state.warmup_error = f"{type(e).__name__}: {e}"
         log.exception("warm-up failed")
+        return
+    kg = app.state.kg
+    if kg.shacl is not None:  # started once ready, not beside the first compile (2 cores): a first write waits for it
+        try:
+            kg.shacl.warm(kg.shapes())
+        except Exception:  # the first write validates in process or starts the worker itself
+            log.exception("the SHACL worker's warm-up failed")
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
