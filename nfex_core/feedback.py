@@ -210,19 +210,19 @@ class ReportWriter:
                 out[good[0][0]] = e
                 return out
             # find the offenders: each report checked alone (no write), the others committed together again
-            passing = []
-            for i, (g, iri) in good:
-                report = self.kg.check(ChangeSet.adding(g))
+            passing: list[tuple[int, tuple[frozenset[Any], URIRef]]] = []
+            for i, (triples, iri) in good:
+                report = self.kg.check(ChangeSet.adding(triples))
                 if report.conforms:
-                    passing.append((i, (g, iri)))
+                    passing.append((i, (triples, iri)))
                 else:
                     out[i] = ValidationFailed(report.violations, report.text, current_version=self.kg.version)
             try:
                 self._commit_together(reports, passing, out)
             except ValidationFailed:  # reports that conform alone but not together: one commit each
-                for i, (g, iri) in passing:
+                for i, (triples, iri) in passing:
                     try:
-                        self._commit_together(reports, [(i, (g, iri))], out)
+                        self._commit_together(reports, [(i, (triples, iri))], out)
                     except NfexError as err:
                         out[i] = err
         return out

@@ -94,7 +94,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             kg.use_shacl_process()
         app.state.advisor = advisor = Advisor(kg, background=settings.background_compile,
                                               poll_interval_s=max(0.0, settings.poll_interval_s),
-                                              compile_pause=max(0.0, settings.compile_pause))
+                                              compile_pause=max(0.0, settings.compile_pause), compiled_cache=core.compiled_cache)
         app.state.reports = ReportWriter(kg, max_items=max(1, settings.feedback_batch),
                                          window_s=max(0.0, settings.feedback_window_ms) / 1000)
         app.state.sessions = SessionStore(

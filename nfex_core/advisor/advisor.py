@@ -35,6 +35,7 @@ from ..kg.scope import EvidenceScope, scoped_graph
 from ..kg.vocab import Vocabulary
 from ..neural.serve import ModelHolder, NeuralStep, frame_stats
 from ..rules.engine import RuleEngine, RuleTable
+from ..rules.persisted import CompiledCache, store_key
 from ..rules.types import Citation, Decision
 from .budget import Budget, resolve_budget
 from .choice import ranked
@@ -85,7 +86,9 @@ class Advisor:
     ``compile_pause``: in background mode, how long a compile that follows another waits, as a multiple of the
     last one's duration (snapshots.py: compiles then take at most half of the process while commits stream in).
     ``exhaustive_scoring``: extract and score every candidate on a frame, not only those that can still win
-    (scoring.Scorer; the same α* and Θ′, slower: for comparisons; default: the settings', NFEX_SCORE_ALL)."""
+    (scoring.Scorer; the same α* and Θ′, slower: for comparisons; default: the settings', NFEX_SCORE_ALL).
+    ``compiled_cache``: a folder where the compiled rule table is kept across restarts (rules/persisted.py: the
+    service's ``NFEX_COMPILED_CACHE``); not with a ``scope``, whose graph is not the store's."""
 
     def __init__(
         self,
@@ -100,6 +103,7 @@ class Advisor:
         background: bool = False,
         exhaustive_scoring: bool | None = None,
         compile_pause: float = 1.0,
+        compiled_cache: Path | None = None,
     ) -> None:
         settings = kg.settings
         self.exhaustive_scoring = settings.score_all if exhaustive_scoring is None else exhaustive_scoring
@@ -108,7 +112,9 @@ class Advisor:
             kg = scoped_graph(kg, self.scope)  # every reader of measurements then honours the scope
         self.kg = kg
         self.neural = ModelHolder(models or settings.models, neural or settings.neural, held_out=self.scope.exclude_sequences)
-        self.engine = RuleEngine(kg)
+        key = store_key(kg) if compiled_cache is not None and self.scope.empty else None
+        cache = CompiledCache(compiled_cache, key) if compiled_cache is not None and key is not None else None
+        self.engine = RuleEngine(kg, cache)
         self.scorer = Scorer(score_pixels, score_threads or settings.score_threads_or_cpus)
         self.snapshots: Snapshots[Snapshot] = Snapshots(self._build, lambda: self.kg.version,
                                                         poll_interval_s=poll_interval_s, background=background,
@@ -149,8 +155,10 @@ class Advisor:
         return self.snapshots.sync()
 
     def close(self) -> None:
-        """Stop background compiles (waits for the running one); call before closing the store."""
+        """Stop background compiles (waits for the running one) and keep the last compiled table where there is a
+        ``compiled_cache``; call before closing the store."""
         self.snapshots.close()
+        self.engine.save()
 
     def _build(self) -> Snapshot:
         vocab = self.kg.vocabulary()

@@ -182,6 +182,11 @@ class KnowledgeGraph:
             self._cache[key] = (v, value)
         return value
 
+    def remember(self, key: str, version: int, value: T) -> None:
+        """Hand ``cached`` the value of ``key`` at ``version`` (a compiled table read from disk, rules/persisted.py)."""
+        with self._cache_lock:
+            self._cache[key] = (version, value)
+
     def shapes(self) -> Shapes:
         return self.cached("shapes", lambda: extract_shapes(self.backend))
 

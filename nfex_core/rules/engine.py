@@ -47,6 +47,7 @@ from ..kg.changes import evidence_only
 from ..kg.footprint import reads
 from ..kg.vocab import ExtractorSpec, Value
 from . import pruning
+from .persisted import CompiledCache
 from .setup import Setup
 from .statements import CompiledStatement
 from .types import (
@@ -94,6 +95,7 @@ class RuleTable:
     summary_lines: dict[Any, tuple[str, ...]] = field(default_factory=dict, repr=False, compare=False)
     cost_groups: dict[Any, Aggregate] = field(default_factory=dict, repr=False, compare=False)
     measured_groups: dict[Any, Any] = field(default_factory=dict, repr=False, compare=False)
+    kept_in: str | None = field(default=None, repr=False, compare=False)  # the file it was read from (persisted.py), not compiled here
     _measured: dict[ContextKey, dict[str, tuple[MeasuredConfiguration, ...]]] = field(default_factory=dict, repr=False)
     _evidenced: set[ContextKey] = field(default_factory=set, repr=False)
 
@@ -354,13 +356,31 @@ def backend_citations(kg: KnowledgeGraph, extractors: Mapping[str, ExtractorSpec
 
 class RuleEngine:
     """The compiled table for the graph's current version, rebuilt when a commit moves the version; each
-    rebuild carries the last table's observations forward (compile_table's ``previous``)."""
+    rebuild carries the last table's observations forward (compile_table's ``previous``). With a ``cache``
+    (persisted.py), the first table comes from the one kept on disk where it is this store's, and a table
+    compiled from scratch is kept there for the next start."""
 
-    def __init__(self, kg: KnowledgeGraph) -> None:
+    def __init__(self, kg: KnowledgeGraph, cache: CompiledCache | None = None) -> None:
         self.kg = kg
+        self.cache = cache
         self._last: RuleTable | None = None
+        self._read_cache = cache is not None
 
     def table(self) -> RuleTable:
+        if self._read_cache and self.cache is not None:
+            self._read_cache = False
+            loaded = self.cache.load(self.kg, backend_citations(self.kg, self.kg.vocabulary().extractors))
+            if loaded is not None:
+                self._last = loaded
+                self.kg.remember("rule-table", loaded.version, loaded)  # it answers while it is the head's
+        scratch = self._last is None
         table = self.kg.cached("rule-table", lambda: compile_table(self.kg, self._last))
+        if scratch and self.cache is not None:
+            self.cache.save_later(self.kg, table)
         self._last = table
         return table
+
+    def save(self) -> None:
+        """Keep the last table for the next start (at shutdown)."""
+        if self.cache is not None and self._last is not None:
+            self.cache.save(self.kg, self._last)

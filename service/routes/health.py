@@ -41,7 +41,7 @@ def readyz(request: Request, kg: KGDep) -> JSONResponse:
     snap = state.advisor.current_snapshot()
     if snap is not None:
         body["rule_table"] = {"version": snap.version, "rules": len(snap.table.rules), "contexts": len(snap.table.decisions),
-                              "compile_ms": round(snap.table.compile_ms, 1)}
+                              "compile_ms": round(snap.table.compile_ms, 1), "kept": snap.table.kept_in is not None}
         # which backends can run here: a learned extractor without its extra is pruned, and this says why
         body["backends"] = backend_status(snap.vocab.extractors, kg.settings)
     return JSONResponse(body, status_code=200 if body["status"] == "ready" else 503)

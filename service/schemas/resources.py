@@ -53,7 +53,8 @@ class RuleTable(Out):
     version: int
     rules: int
     contexts: int
-    compile_ms: float
+    compile_ms: float = Field(..., description="How long its compile took (in the process that compiled it, when kept).")
+    kept: bool = Field(False, description="Read from the table kept on disk at the last stop (NFEX_COMPILED_CACHE), not compiled here.")
 
 
 class BackendStatus(Out):

@@ -317,6 +317,7 @@ class RuleTable(TypedDict):
     rules: int
     contexts: int
     compile_ms: float
+    kept: NotRequired[bool]
 
 
 class Selection(TypedDict):
