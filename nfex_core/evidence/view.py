@@ -33,9 +33,11 @@ from __future__ import annotations
 import hashlib
 import io
 import logging
+import tempfile
 from collections import Counter
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import pyoxigraph as ox
@@ -99,11 +101,17 @@ class EvidenceView:
     be made from this one. ``advance`` changes ``backend`` in place: a view is handed to one compile."""
 
     version: int  # −1: not to be advanced (_settled)
-    backend: EmbeddedBackend
+    backend: EmbeddedBackend | None  # None: detached (``detached``), the store to be made when a rule must run
     quarantined: frozenset[str]
     summary: frozenset[str]
     incremental: bool = False  # made from an earlier view (else from a dump of the stored graph)
     touched: frozenset[tuple[str, str]] | None = None  # the (predicate, object) of every triple the advance added or removed; None: unknown
+
+    def detached(self) -> EvidenceView:
+        """This view without its store: what the table kept on disk holds (rules/persisted.py). Advanced, it says what
+        changed (``touched``) without a store to change, so compiles whose change no rule reads (a report waiting for
+        corroboration) need no copy of the graph; the first compile that must run a rule makes a fresh view."""
+        return EvidenceView(self.version, None, self.quarantined, self.summary)
 
     def advance(self, kg: KnowledgeGraph, admission: Admission, summary: frozenset[str],
                 diff: Diff | None = None, head: int | None = None) -> EvidenceView:
@@ -122,12 +130,15 @@ class EvidenceView:
             not isinstance(x, URIRef | Literal) for t in (*change.added, *change.removed) for x in t
         ):
             return evidence_view(kg, admission, summary)
+        quarantined = frozenset(admission.quarantined)
+        if self.backend is None:
+            touched = _touched(kg, change, self.quarantined, quarantined, self.summary ^ summary)
+            return EvidenceView(head, None, quarantined, summary, incremental=True, touched=touched)
         store: ox.Store = self.backend._store
         text = ChangeText.of(change)
         _delete_data(store, sorted(self.summary - summary))
         _delete_data(store, text.removed)
         _insert_data(store, text.added)
-        quarantined = frozenset(admission.quarantined)
         _delete_subjects(store, quarantined)
         readmitted = sorted(self.quarantined - quarantined)
         version = head
@@ -187,11 +198,19 @@ def evidence_view(kg: KnowledgeGraph, admission: Admission, summary: frozenset[s
     """A fresh view (module docstring): the stored graph dumped and loaded, less the quarantined, plus the summaries.
     The dump carries the version it read (one query reads one state of the store, and a commit writes its data
     and the head in one operation), so the view knows its version even while commits land."""
-    dump = io.BytesIO()
-    kg.backend.query_to(_VERSIONED_DUMP, "application/n-triples", dump)
     view = EmbeddedBackend(None)
     store: ox.Store = view._store
-    store.load(dump.getvalue(), format=ox.RdfFormat.N_TRIPLES)
+    if isinstance(kg.backend, EmbeddedBackend):
+        # through a file, which Oxigraph writes and reads without the interpreter lock: at 3M statements the dump
+        # takes ~20 s, and into a Python buffer it took the lock for every chunk, against the requests being served
+        with tempfile.TemporaryDirectory(prefix="nfex-view-") as folder:
+            path = str(Path(folder) / "dump.nt")
+            kg.backend.construct_to_file(_VERSIONED_DUMP, path)
+            store.load(path=path, format=ox.RdfFormat.N_TRIPLES)
+    else:
+        dump = io.BytesIO()
+        kg.backend.query_to(_VERSIONED_DUMP, "application/n-triples", dump)
+        store.load(dump.getvalue(), format=ox.RdfFormat.N_TRIPLES)
     mark = ox.NamedNode(_MARK)
     found = [int(q.object.value) for q in store.quads_for_pattern(mark, mark, None) if isinstance(q.object, ox.Literal)]
     store.update(f"DELETE WHERE {{ <{_MARK}> <{_MARK}> ?v }}")

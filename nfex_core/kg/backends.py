@@ -232,6 +232,14 @@ class EmbeddedBackend(Backend):
             res.serialize(out, format=RESULT_FORMATS[media])
         return media
 
+    def construct_to_file(self, query: str, path: str) -> None:
+        """A CONSTRUCT's triples written as N-Triples to the file ``path`` by Oxigraph, without the interpreter lock
+        (``query_to`` writes through a Python object, taking the lock for every chunk)."""
+        res = self._run(query)
+        if not isinstance(res, ox.QueryTriples):
+            raise BadInput("expected a CONSTRUCT query")
+        res.serialize(path, format=ox.RdfFormat.N_TRIPLES)
+
     def load(self, data: bytes, media: str = "application/n-triples") -> None:
         """Load serialised triples into the default graph in one transaction (scratch copies for
         what-if previews, nfex_core/impact.py)."""

@@ -234,9 +234,13 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     hits: dict[tuple[pruning.SparqlRule, str], dict[int, list[tuple[str, Citation]]]] = {}
     due = [k for k, (rule, query) in enumerate(zip(setup.rules, setup.queries, strict=True)) if not isinstance(query, Exception)
            and ((rule, query) not in earlier or reads(setup.footprints[k], touched))]
-    # ``due`` is empty without rules, and with rules there is a view (``made``)
+    if made is not None and made.backend is None and due:  # a kept table's detached view (view.py): a rule must run now
+        made = evidence_view(kg, admission, summary)
+        earlier = {}
+        due = [k for k, query in enumerate(setup.queries) if not isinstance(query, Exception)]
+    # ``due`` is empty without rules, and with rules there is a view (``made``) with its store
     found_by = dict(zip(due, _evaluate_rules(made.backend, [(setup.rules[k], cast(str, setup.queries[k])) for k in due]), strict=True)) \
-        if made is not None else {}
+        if made is not None and made.backend is not None else {}
     for k, (rule, query) in enumerate(zip(setup.rules, setup.queries, strict=True)):
         if isinstance(query, Exception):  # a broken rule must not take selection down; it is reported
             errors.append(f"{rule.iri}: {query}")
@@ -375,8 +379,8 @@ class RuleEngine:
                 self.kg.remember("rule-table", loaded.version, loaded)  # it answers while it is the head's
         scratch = self._last is None
         table = self.kg.cached("rule-table", lambda: compile_table(self.kg, self._last))
-        if scratch and self.cache is not None:
-            self.cache.save_later(self.kg, table)
+        if scratch and self.cache is not None:  # the first compile of a process: in the service, before it is ready
+            self.cache.save(self.kg, table)
         self._last = table
         return table
 

@@ -4,9 +4,10 @@ A compile from scratch reads every measurement: under a second on the shipped gr
 statements and a minute at 3M, at every start (``bench/bench_scale.py``). So the table is kept in a file:
 
 - **written** when the service stops (``Advisor.close``) and after a compile made from scratch (the first of
-  a process), in a background thread: the table with what the next compile carries from it
-  (docs/architecture.md), without the evidence view (an in-memory copy of the graph, made again when a
-  compile first needs it);
+  a process: in the service, before it is ready, so that pickling, which holds the interpreter lock, does not
+  stall selections): the table with what the next compile carries from it (docs/architecture.md), its evidence
+  view detached from its store (an in-memory copy of the graph: made again when a compile first has a rule to
+  run, evidence/view.py ``detached``);
 - **read** at the first compile of a process, and used when it was compiled from this very store: the commit
   of its version (``nfex:commitId``, a fresh uuid per commit) is the store's commit of that version — a store
   rebuilt, restored or rolled back to an equal version number differs — by the same code (a digest of
@@ -139,7 +140,9 @@ class CompiledCache:
         commit = commit_of(kg, table.version)
         if commit is None or self._holds == (table.version, commit):  # nothing to write: the file has it
             return
-        kept = dataclasses.replace(table, decisions=dict(table.decisions), view=None, kept_in=None, _measured={}, _evidenced=set())
+        view = table.view  # the next compile may take it meanwhile (take_view): then the next start makes a fresh one
+        kept = dataclasses.replace(table, decisions=dict(table.decisions), view=view.detached() if view is not None else None,
+                                   kept_in=None, _measured={}, _evidenced=set())
         head = {"format": FORMAT, "code": code_digest(), "location": self.location, "version": table.version, "commit": commit}
         tmp: str | None = None
         with self._saving:
@@ -161,12 +164,6 @@ class CompiledCache:
             finally:
                 if tmp is not None:
                     Path(tmp).unlink(missing_ok=True)
-
-    def save_later(self, kg: KnowledgeGraph, table: RuleTable) -> threading.Thread:
-        """``save`` in a background thread (after a compile from scratch: the caller is answering requests)."""
-        thread = threading.Thread(target=self.save, args=(kg, table), name="nfex-compiled-save", daemon=True)
-        thread.start()
-        return thread
 
 
 def _prune(folder: Path) -> None:
