@@ -1,15 +1,20 @@
 """How nFEX scales with the size of its graph (issue 17): one table over graph sizes, embedded and remote store.
 
-    python bench/bench_scale.py [--sizes 30000,300000,3000000] [--modes embedded,remote] [--plot scale.png]
+    python bench/bench_scale.py [--sizes 30000,300000,3000000] [--modes embedded,remote] [--remote-seed auto]
+                                [--plot scale.png]
 
 For each size N: the shipped seed (ontology/ with its measurements, rules/; ~34k statements) plus synthetic
 Measurements drawn like the shipped sweeps (bench/_synthetic.py) up to N statements, written into an empty
-store as one version with ``KnowledgeGraph.load_validated`` — an embedded store, and a fresh `oxigraph serve`
-over HTTP (its staged writes). Then, per store, `nfex serve` (one uvicorn worker, symbolic advisor, reporter
-tokens) is started and measured:
+store as one version with ``KnowledgeGraph.load_validated`` — an embedded store, and a fresh `oxigraph serve`:
+over HTTP (its staged writes), or with ``--remote-seed bulk`` (``auto``: above 1M statements, where the staged
+HTTP write of 3M broke the server's connection) by ``oxigraph load`` of the embedded store's N-Quads dump (the
+same data, its version history included) before the server starts. Then, per store, `nfex serve` (one uvicorn
+worker, symbolic advisor, reporter tokens, its own NFEX_COMPILED_CACHE) is started and measured:
 
-- seed: the load_validated write of the N statements;
-- cold start: from starting the process to ``/readyz`` 200 (import, open, first compile);
+- seed: the load_validated write of the N statements (remote, bulk: the ``oxigraph load``);
+- cold start: from starting the process to ``/readyz`` 200 (import, open, first compile from scratch);
+- restart: the same for a second start after the first stopped, which reads the rule table the first kept
+  (nfex_core/rules/persisted.py);
 - full compile: ``/readyz`` ``rule_table.compile_ms`` of the first snapshot;
 - compile per report: the same after one more report (the compile carries from the last table what the
   report cannot have touched: docs/architecture.md);
@@ -57,7 +62,7 @@ PREFIX sosa: <http://www.w3.org/ns/sosa/>
 SELECT ?x (COUNT(?m) AS ?windows) (AVG(?ate) AS ?mean_ate) WHERE {
   ?m a nfex:Measurement ; sosa:usedProcedure ?c ; nfex:ateRmse ?ate . ?c nfex:ofExtractor ?x } GROUP BY ?x"""
 COLUMNS = [  # (key, header, unit)
-    ("seed_s", "seed", "s"), ("cold_s", "cold start to ready", "s"), ("compile_s", "full compile", "s"),
+    ("seed_s", "seed", "s"), ("cold_s", "cold start to ready", "s"), ("restart_s", "restart to ready", "s"), ("compile_s", "full compile", "s"),
     ("report_compile_s", "compile per report", "s"), ("idle_p50", "select p50 idle", "ms"),
     ("idle_p99", "select p99 idle", "ms"), ("stream_p50", "select p50 in stream", "ms"),
     ("stream_p99", "select p99 in stream", "ms"), ("reports_s", "reports/s", ""), ("sparql_p50", "SPARQL agg. p50", "ms"),
@@ -117,18 +122,36 @@ def p50_ms(n: int, call: Callable[[], httpx.Response]) -> float:
     return statistics.median(out)
 
 
-def serve_and_measure(store: str, row: Row, args: argparse.Namespace, oxigraph_url: str, log: Path) -> None:
-    tokens = [f"scale-token-{k}" for k in range(args.threads)]
+def start_nfex(env: dict[str, str], log: Path, timeout: float) -> tuple[subprocess.Popen[bytes], str, float]:
+    """`nfex serve` on a free port: the process, its URL, and seconds from starting it to ``/readyz`` 200."""
     port = free_port()
-    env = dict(os.environ, NFEX_STORE=store, NFEX_HOME=str(ROOT), NFEX_NEURAL="symbolic", NFEX_LOG_LEVEL="warning",
-               PYTHONPATH=str(ROOT), NFEX_TOKENS=",".join(f"scale{k}:{tok}:reporter" for k, tok in enumerate(tokens)))
     t = time.perf_counter()
     svc = subprocess.Popen([sys.executable, "-m", "nfex_core.cli.main", "serve", "--port", str(port), "--log-level", "warning"],
-                           env=env, stdout=log.open("wb"), stderr=subprocess.STDOUT)
+                           env=env, stdout=log.open("ab"), stderr=subprocess.STDOUT)
     base = f"http://127.0.0.1:{port}"
     try:
-        wait_ok(base + "/readyz", svc, args.ready_timeout)
-        row.values["cold_s"] = time.perf_counter() - t
+        wait_ok(base + "/readyz", svc, timeout)
+    except BaseException:
+        stop(svc)
+        raise
+    return svc, base, time.perf_counter() - t
+
+
+def stop(svc: subprocess.Popen[bytes]) -> None:
+    svc.terminate()  # the service keeps its compiled table as it stops
+    try:
+        svc.wait(600)
+    except subprocess.TimeoutExpired:
+        svc.kill()
+
+
+def serve_and_measure(store: str, row: Row, args: argparse.Namespace, oxigraph_url: str, log: Path) -> None:
+    tokens = [f"scale-token-{k}" for k in range(args.threads)]
+    env = dict(os.environ, NFEX_STORE=store, NFEX_HOME=str(ROOT), NFEX_NEURAL="symbolic", NFEX_LOG_LEVEL="warning",
+               PYTHONPATH=str(ROOT), NFEX_TOKENS=",".join(f"scale{k}:{tok}:reporter" for k, tok in enumerate(tokens)),
+               NFEX_COMPILED_CACHE=str(log.parent / f"compiled-{log.stem}"))
+    svc, base, row.values["cold_s"] = start_nfex(env, log, args.ready_timeout)
+    try:
         row.values["compile_s"] = httpx.get(base + "/readyz").json()["rule_table"]["compile_ms"] / 1000
         run = measure(base, argparse.Namespace(reports=args.reports, threads=args.threads, idle=args.idle), tokens)
         row.errors += run.errors
@@ -147,11 +170,30 @@ def serve_and_measure(store: str, row: Row, args: argparse.Namespace, oxigraph_u
             row.values["oxigraph_p50"] = p50_ms(args.queries, lambda: c.get(oxigraph_url + "/query", params={"query": AGGREGATE},
                                                                              headers={"accept": "application/sparql-results+json"}))
     finally:
-        svc.terminate()
-        try:
-            svc.wait(60)
-        except subprocess.TimeoutExpired:
-            svc.kill()
+        stop(svc)
+    svc, base, row.values["restart_s"] = start_nfex(env, log, args.ready_timeout)
+    try:
+        if not httpx.get(base + "/readyz").json()["rule_table"].get("kept"):
+            row.errors.append("the restart compiled its table instead of reading the kept one")
+    finally:
+        stop(svc)
+
+
+def bulk_load(embedded: Path, folder: Path) -> float:
+    """``oxigraph load`` into ``folder`` of the N-Quads dump of the embedded store at ``embedded`` (every graph: the
+    knowledge and its version history); seconds of the load."""
+    import pyoxigraph as ox
+
+    dump = folder.parent / f"{folder.name}.nq"
+    store = ox.Store(str(embedded))
+    store.dump(str(dump), format=ox.RdfFormat.N_QUADS)
+    del store
+    exe = shutil.which("oxigraph") or str(Path(sys.executable).parent / "oxigraph")
+    t = time.perf_counter()
+    subprocess.run([exe, "load", "--location", str(folder), "--file", str(dump)], check=True, stdout=subprocess.DEVNULL)
+    seconds = time.perf_counter() - t
+    dump.unlink()
+    return seconds
 
 
 def run_size(size: int, args: argparse.Namespace, settings: Settings, work: Path) -> list[Row]:
@@ -159,14 +201,19 @@ def run_size(size: int, args: argparse.Namespace, settings: Settings, work: Path
     lines = graph_lines(size, settings)
     print(f"\n{size:,}: {len(lines):,} statements made in {time.perf_counter() - t:.1f} s", flush=True)
     rows = []
+    bulk = args.remote_seed == "bulk" or (args.remote_seed == "auto" and len(lines) > 1_000_000)
+    embedded = work / f"embedded-{size}"
+    embedded_seed = seed_store(str(embedded), lines, settings) if bulk or "embedded" in args.modes else None
+    remote_seed = bulk_load(embedded, work / f"oxigraph-{size}") if bulk else None
     ox_proc, ox_url = start_oxigraph(work / f"oxigraph-{size}")
     try:
-        remote_seed = seed_store(ox_url, lines, settings)
+        if remote_seed is None:
+            remote_seed = seed_store(ox_url, lines, settings)
         for mode in args.modes:
-            row = Row(size, mode, len(lines))
-            store = ox_url if mode == "remote" else str(work / f"embedded-{size}")
-            row.values["seed_s"] = remote_seed if mode == "remote" else seed_store(store, lines, settings)
-            print(f"  {mode}: seeded in {row.values['seed_s']:.1f} s", flush=True)
+            row = Row(size, mode if mode == "embedded" or not bulk else "remote (bulk-loaded)", len(lines))
+            store = ox_url if mode == "remote" else str(embedded)
+            row.values["seed_s"] = remote_seed if mode == "remote" else embedded_seed  # type: ignore[assignment]
+            print(f"  {row.mode}: seeded in {row.values['seed_s']:.1f} s", flush=True)
             serve_and_measure(store, row, args, ox_url, work / f"serve-{mode}-{size}.log")
             print("  " + ", ".join(f"{k} {v:.3g}" for k, v in row.values.items()), flush=True)
             rows.append(row)
@@ -197,7 +244,7 @@ def plot(rows: list[Row], path: Path) -> None:
     fig, ax = plt.subplots(figsize=(8, 5))
     for i, (key, header, unit) in enumerate(c for c in COLUMNS if c[2]):
         for mode, style in (("embedded", "-"), ("remote", "--")):
-            pts = [(r.triples, r.values[key] * (1000 if unit == "s" else 1)) for r in rows if r.mode == mode and key in r.values]
+            pts = [(r.triples, r.values[key] * (1000 if unit == "s" else 1)) for r in rows if r.mode.startswith(mode) and key in r.values]
             if pts:
                 ax.plot(*zip(*pts, strict=True), style, marker="o", color=f"C{i}", label=f"{header} ({mode})")
     ax.set(xscale="log", yscale="log", xlabel="statements in the graph", ylabel="ms", title="nFEX at scale (bench/bench_scale.py)")
@@ -217,6 +264,8 @@ def main() -> None:
     ap.add_argument("--idle", type=int, default=200)
     ap.add_argument("--queries", type=int, default=20)
     ap.add_argument("--ready-timeout", type=float, default=600, help="seconds a service may take to become ready")
+    ap.add_argument("--remote-seed", choices=("auto", "http", "bulk"), default="auto",
+                    help="how `oxigraph serve` gets the data: staged HTTP writes, or `oxigraph load` of the embedded store's dump (auto: above 1M statements)")
     ap.add_argument("--plot", type=Path, default=None, help="where to save the plot (PNG)")
     args = ap.parse_args()
     args.modes = [m for m in args.modes.split(",") if m]
