@@ -32,8 +32,6 @@ from _graphs import bulk  # noqa: E402
 from _timing import per_call_us  # noqa: E402
 
 from nfex_core.advisor import Advisor  # noqa: E402
-from nfex_core.evidence import TrustPolicy, admit, read_observations  # noqa: E402
-from nfex_core.evidence.view import evidence_view  # noqa: E402
 from nfex_core.knowledge import open_graph
 from nfex_core.rules import pruning  # noqa: E402
 from nfex_core.rules.engine import RuleEngine  # noqa: E402
@@ -68,10 +66,8 @@ def main() -> None:
     select_us = per_call_us(lambda c: advisor.select({k: v for k, v in c.items() if v is not None}), requests[: max(1, args.requests // 10)])
 
     # the rules run on the evidence view (admitted measurements, robust summaries), as the engine runs them
-    observations = read_observations(kg)
-    admission = admit(observations, TrustPolicy.load(kg))
-    value_iris = {(d, v): str(spec.iri) for d in dims for v, spec in vocab.dimensions[d].values.items()}
-    view = evidence_view(kg, admission, admission.select(observations), {x: str(e.iri) for x, e in vocab.extractors.items()}, value_iris).backend
+    assert table.view is not None and table.view.backend is not None
+    view = table.view.backend  # the compile's own view
     dump = io.BytesIO()
     view.query_to("CONSTRUCT { ?s ?p ?o } WHERE { ?s ?p ?o }", "application/n-triples", dump)
     data = rdflib.Graph().parse(data=dump.getvalue().decode(), format="nt")

@@ -1,7 +1,8 @@
 """How nFEX scales with the size of its graph (issue 17): one table over graph sizes, embedded and remote store.
 
     python bench/bench_scale.py [--sizes 30000,300000,3000000] [--modes embedded,remote] [--remote-seed auto]
-                                [--plot scale.png]
+                                [--plot scale.png] [--rows rows.json]
+    python bench/bench_scale.py --replot a.json b.json --plot scale.png     # one table and plot from several runs
 
 For each size N: the shipped seed (ontology/ with its measurements, rules/; ~34k statements) plus synthetic
 Measurements drawn like the shipped sweeps (bench/_synthetic.py) up to N statements, written into an empty
@@ -29,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import os
 import shutil
 import statistics
@@ -246,7 +248,7 @@ def plot(rows: list[Row], path: Path) -> None:
         for mode, style in (("embedded", "-"), ("remote", "--")):
             pts = [(r.triples, r.values[key] * (1000 if unit == "s" else 1)) for r in rows if r.mode.startswith(mode) and key in r.values]
             if pts:
-                ax.plot(*zip(*pts, strict=True), style, marker="o", color=f"C{i}", label=f"{header} ({mode})")
+                ax.plot(*zip(*pts, strict=True), style, marker="o", color=plt.get_cmap("tab20")(i), label=f"{header} ({mode})")
     ax.set(xscale="log", yscale="log", xlabel="statements in the graph", ylabel="ms", title="nFEX at scale (bench/bench_scale.py)")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=6, ncol=2)
@@ -267,10 +269,18 @@ def main() -> None:
     ap.add_argument("--remote-seed", choices=("auto", "http", "bulk"), default="auto",
                     help="how `oxigraph serve` gets the data: staged HTTP writes, or `oxigraph load` of the embedded store's dump (auto: above 1M statements)")
     ap.add_argument("--plot", type=Path, default=None, help="where to save the plot (PNG)")
+    ap.add_argument("--rows", type=Path, default=None, help="also write the rows measured as JSON (for --replot)")
+    ap.add_argument("--replot", type=Path, nargs="+", default=None, help="measure nothing: the table and plot of the rows these files hold")
     args = ap.parse_args()
     args.modes = [m for m in args.modes.split(",") if m]
     if not set(args.modes) <= {"embedded", "remote"}:
         ap.error(f"--modes: embedded and/or remote, got {args.modes}")
+    if args.replot is not None:
+        rows = [Row(**r) for path in args.replot for r in json.loads(path.read_text())]
+        print(table(sorted(rows, key=lambda r: (r.triples, r.mode))))
+        if args.plot is not None:
+            plot(rows, args.plot)
+        return
     settings = dataclasses.replace(Settings.from_env(), home=ROOT)
     work = Path(tempfile.mkdtemp(prefix="nfex-bench-scale-"))
     rows: list[Row] = []
@@ -281,6 +291,8 @@ def main() -> None:
         shutil.rmtree(work, ignore_errors=True)
     print(f"\n{args.reports} reports from {args.threads} threads; {args.idle} idle selects; {args.queries} SPARQL queries\n")
     print(table(rows))
+    if args.rows is not None:
+        args.rows.write_text(json.dumps([dataclasses.asdict(r) for r in rows], indent=1))
     for r in rows:
         for e in r.errors[:3]:
             print(f"  {r.triples:,} {r.mode}: a report failed: {e}")
