@@ -112,8 +112,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         finally:
             app.state.queries.close()
             app.state.reports.close()
-            advisor.close()
-            kg.close()
+            try:
+                advisor.close()
+            finally:
+                kg.close()
             gc.unfreeze()  # a process that runs the app again (tests, an embedding host) starts from a collectable heap
 
     app = FastAPI(title="nFEX", version=__version__, summary="Which feature extractor to run, with which parameters, and why.",

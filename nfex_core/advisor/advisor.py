@@ -157,8 +157,8 @@ class Advisor:
     def close(self) -> None:
         """Stop background compiles (waits for the running one) and keep the last compiled table where there is a
         ``compiled_cache``; call before closing the store."""
-        self.snapshots.close()
-        self.engine.save()
+        if self.snapshots.close():  # a compile still running would be pickled as it changes: no table is kept then
+            self.engine.save()
 
     def _build(self) -> Snapshot:
         vocab = self.kg.vocabulary()

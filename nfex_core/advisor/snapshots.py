@@ -196,9 +196,10 @@ class Snapshots(Generic[S]):
                 return False
             worker.join(left)
 
-    def close(self, timeout: float = 30.0) -> None:
-        """No more background compiles; waits for the running one (the store is about to close)."""
+    def close(self, timeout: float = 30.0) -> bool:
+        """No more background compiles; waits for the running one (the store is about to close). False when it
+        was still running after ``timeout`` seconds."""
         with self._state:
             self._closed = True
         self._closing.set()
-        self.wait_idle(timeout)
+        return self.wait_idle(timeout)

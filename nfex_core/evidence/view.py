@@ -200,14 +200,7 @@ def evidence_view(kg: KnowledgeGraph, admission: Admission, summary: frozenset[s
     and the head in one operation), so the view knows its version even while commits land."""
     view = EmbeddedBackend(None)
     store: ox.Store = view._store
-    if isinstance(kg.backend, EmbeddedBackend):
-        # through a file, which Oxigraph writes and reads without the interpreter lock: at 3M statements the dump
-        # takes ~20 s, and into a Python buffer it took the lock for every chunk, against the requests being served
-        with tempfile.TemporaryDirectory(prefix="nfex-view-") as folder:
-            path = str(Path(folder) / "dump.nt")
-            kg.backend.construct_to_file(_VERSIONED_DUMP, path)
-            store.load(path=path, format=ox.RdfFormat.N_TRIPLES)
-    else:
+    if not (isinstance(kg.backend, EmbeddedBackend) and _load_through_file(kg.backend, store)):
         dump = io.BytesIO()
         kg.backend.query_to(_VERSIONED_DUMP, "application/n-triples", dump)
         store.load(dump.getvalue(), format=ox.RdfFormat.N_TRIPLES)
@@ -225,6 +218,23 @@ _MARK = "urn:nfex:view-version"
 _VERSIONED_DUMP = f"""CONSTRUCT {{ ?s ?p ?o . <{_MARK}> <{_MARK}> ?v }} WHERE {{
     {{ ?s ?p ?o }} UNION {{ GRAPH <{META}> {{ <{HEAD}> <{NFEX.versionNumber}> ?v }} }}
 }}"""
+
+
+def _load_through_file(backend: EmbeddedBackend, store: ox.Store) -> bool:
+    """The stored graph dumped into ``store`` through a temporary file, which Oxigraph writes and reads without the
+    interpreter lock (into a Python buffer, the dump took the lock for every chunk, against the requests being
+    served: at 3M statements it takes ~20 s). False, with ``store`` left empty, where no such file can be written
+    (the dump is ~150 bytes a statement): the caller goes through memory."""
+    try:
+        with tempfile.TemporaryDirectory(prefix="nfex-view-") as folder:
+            path = str(Path(folder) / "dump.nt")
+            backend.construct_to_file(_VERSIONED_DUMP, path)
+            store.load(path=path, format=ox.RdfFormat.N_TRIPLES)
+        return True
+    except OSError as e:
+        log.info("evidence view: no temporary file (%s); the dump goes through memory", e)
+        store.clear()
+        return False
 
 
 def _settled(kg: KnowledgeGraph, version: int) -> int:

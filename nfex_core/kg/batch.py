@@ -13,9 +13,9 @@ A caller returns only after ``flush`` returned, i.e. after its batch is committe
 a time; items that arrive during a flush join the next batch, which opens when the flush ends, so the callers
 that flush just answered can join it too — a fleet's clients each post their next report when the last is
 answered. The items *expected* are those callers plus the items already waiting when it ended: everyone in the
-system then. So four clients make batches of four that close as soon as the fourth arrives, a lone client's
-report goes at once, and a fleet that grows or shrinks is followed within a batch (one that shrinks costs one
-wait of ``window_s``). Closing on a window alone kept every batch open for the whole window; counting the
+system then (one, when the first item came more than ``window_s`` after the flush: nobody is waiting for it). So
+four clients make batches of four that close as soon as the fourth arrives, a report after a quiet spell goes at
+once, and a fleet that grows or shrinks is followed within a batch (one that shrinks costs one wait of ``window_s``). Closing on a window alone kept every batch open for the whole window; counting the
 window from the oldest item's arrival sent the items queued during a flush off at once, without the callers
 it answered — four clients split into batches of three and one, two commits a round (bench/bench_fleet.py);
 closing once arrivals paused for a few ms split them the same way whenever a client was late. An item waits at
@@ -85,7 +85,9 @@ class Batcher(Generic[T, R]):
     def _take(self) -> list[_Slot[T]]:
         """The next batch (empty when none is queued: the flusher then ends)."""
         with self._cond:
-            while self._queue and len(self._queue) < min(self._expected, self.max_items):
+            # the callers the last flush answered come back within a window, or are not expected any more
+            expected = self._expected if self._queue and self._queue[0].arrived - self._free_since <= self.window_s else 1
+            while self._queue and len(self._queue) < min(expected, self.max_items):
                 left = max(self._queue[0].arrived, self._free_since) + self.window_s - time.monotonic()
                 if left <= 0:
                     break

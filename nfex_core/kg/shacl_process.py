@@ -101,12 +101,18 @@ def _in_worker(token: str, shapes: Sent | None, data: Sequence[Triple], focus: C
         return "ok", run_pyshacl(data, found, set(focus))
     except BadInput as e:
         return "error", str(e)
+    except Exception as e:  # the parent runs it again in its own process, which raises what pySHACL raises
+        return "failed", f"{type(e).__name__}: {e}"
 
 
 def main() -> None:
     """The worker: answers each request on stdin on stdout until stdin closes."""
-    requests, replies = sys.stdin.buffer, sys.stdout.buffer
-    sys.stdout = sys.stderr  # whatever a library prints must not land among the replies
+    requests = sys.stdin.buffer
+    # the replies get a descriptor of their own; fd 1 becomes stderr's, so that nothing a library writes to
+    # standard output, from Python or from C, lands among them
+    replies = os.fdopen(os.dup(1), "wb")
+    os.dup2(2, 1)
+    sys.stdout = sys.stderr
     from . import validation  # noqa: F401  (pySHACL and rdflib's SPARQL, imported before the first request)
 
     _send(replies, ("ready", None))
@@ -135,7 +141,8 @@ class ShaclProcess:
         self._stop()
         root = str(Path(__file__).resolve().parents[2])  # where nfex_core is importable from, installed or not
         env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")])))
-        proc = subprocess.Popen([sys.executable, "-c", "from nfex_core.kg.shacl_process import main; main()"], stdin=subprocess.PIPE,
+        # -P: not the working directory first on the path, so the worker imports the nfex_core this process runs
+        proc = subprocess.Popen([sys.executable, "-P", "-c", "from nfex_core.kg.shacl_process import main; main()"], stdin=subprocess.PIPE,
                                 stdout=subprocess.PIPE, env=env)
         self._proc = proc
         self.starts += 1
@@ -176,7 +183,7 @@ class ShaclProcess:
                     self._worker()
                 else:
                     self._ask(shapes.token, shapes, [], [])
-            except (OSError, EOFError, pickle.PickleError) as e:
+            except Exception as e:
                 log.warning("the SHACL process did not start (%s); writes validate in this process until one does", e)
                 self._stop()
 
@@ -190,7 +197,7 @@ class ShaclProcess:
                 return run_pyshacl(triples, shapes, set(focus))
             try:
                 status, out = self._ask(shapes.token, shapes, triples, list(focus))
-            except (OSError, EOFError, pickle.PickleError) as e:
+            except Exception as e:  # a worker that died, or answers what this process cannot read
                 self.fallbacks += 1
                 log.warning("the SHACL process failed (%s); this validation runs in this process, the next one "
                             "starts a new worker", e)
@@ -198,6 +205,9 @@ class ShaclProcess:
                 return run_pyshacl(triples, shapes, set(focus))
         if status == "error":
             raise BadInput(out)
+        if status == "failed":  # pySHACL itself failed there: here it fails the same way, with its own exception
+            log.warning("pySHACL failed in the SHACL process (%s); validating in this process", out)
+            return run_pyshacl(triples, shapes, set(focus))
         results, text = out
         return list(results), str(text)
 
@@ -207,7 +217,11 @@ class ShaclProcess:
         return {"running": proc is not None and proc.poll() is None, "starts": self.starts, "fallbacks": self.fallbacks}
 
     def close(self) -> None:
+        """No more validations in the worker; a validation under way there is cut short (it runs here instead)."""
+        self._closed = True
+        proc = self._proc
+        if proc is not None and proc.poll() is None:
+            proc.kill()  # a request waiting on it gets EOF at once, rather than holding the lock until pySHACL ends
         with self._lock:
-            self._closed = True
             self._stop()
 

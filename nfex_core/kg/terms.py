@@ -79,7 +79,8 @@ def from_oxigraph(term: object, *, as_written: bool = False) -> Node:
 
 
 _CONVERTED: dict[bool, dict[object, Node]] = {False: {}, True: {}}  # term_converter's memo, per as_written
-CONVERTED_MAX = 100_000  # terms remembered per mode (tens of MB at most); then the memo starts again
+CONVERTED_MAX = 100_000  # terms remembered per mode; then the memo starts again
+LONG_LITERAL = 200  # characters: a longer literal (a rule's query, a comment) is converted each time, not kept
 
 
 def term_converter(*, as_written: bool = False) -> Callable[[object], Node]:
@@ -93,9 +94,12 @@ def term_converter(*, as_written: bool = False) -> Callable[[object], Node]:
     def convert(term: object) -> Node:
         found = terms.get(term)
         if found is None:
+            found = from_oxigraph(term, as_written=as_written)
+            if isinstance(term, ox.Literal) and len(term.value) > LONG_LITERAL:  # a rule's text, a note: not kept
+                return found
             if len(terms) >= CONVERTED_MAX:
                 terms.clear()
-            found = terms[term] = from_oxigraph(term, as_written=as_written)
+            terms[term] = found
         return found
 
     return convert

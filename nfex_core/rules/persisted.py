@@ -1,7 +1,7 @@
 """The compiled rule table kept on disk, so that a service restarts without compiling its graph again.
 
 A compile from scratch reads every measurement: under a second on the shipped graph, about 5 s at 300k
-statements and a minute at 3M, at every start (``bench/bench_scale.py``). So the table is kept in a file:
+statements and 50–70 s at 3M, at every start (``bench/bench_scale.py``). So the table is kept in a file:
 
 - **written** when the service stops (``Advisor.close``) and after a compile made from scratch (the first of
   a process: in the service, before it is ready, so that pickling, which holds the interpreter lock, does not
@@ -124,31 +124,34 @@ class CompiledCache:
         except Exception as e:  # a truncated or unreadable file is a cache miss, not an outage
             log.warning("compiled table %s does not read (%s: %s); compiling", self.path, type(e).__name__, e)
             return None
-        setup = table.setup
+        setup = getattr(table, "setup", None)
         if setup is None or dict(setup.absent) != dict(absent):
             log.info("compiled table %s: other extractor backends missing; compiling", self.path)
             return None
         table.kept_in = str(self.path)
         self._holds = (table.version, head["commit"])
-        os.utime(self.path)  # recently used: kept by _prune
+        try:
+            os.utime(self.path)  # recently used: kept by _prune
+        except OSError:  # pruned meanwhile by another process: what was read stands
+            pass
         log.info("compiled table of version %d read from %s in %.0f ms", table.version, self.path,
                  (time.perf_counter() - started) * 1000)
         return table
 
     def save(self, kg: KnowledgeGraph, table: RuleTable) -> None:
-        """Write ``table`` (without its evidence view) for the next start; a failure is logged, not raised."""
-        commit = commit_of(kg, table.version)
-        if commit is None or self._holds == (table.version, commit):  # nothing to write: the file has it
-            return
-        view = table.view  # the next compile may take it meanwhile (take_view): then the next start makes a fresh one
-        kept = dataclasses.replace(table, decisions=dict(table.decisions), view=view.detached() if view is not None else None,
-                                   kept_in=None, _measured={}, _evidenced=set())
-        head = {"format": FORMAT, "code": code_digest(), "location": self.location, "version": table.version, "commit": commit}
+        """Write ``table`` (its evidence view detached) for the next start; a failure is logged, not raised."""
         tmp: str | None = None
         with self._saving:
             started = time.perf_counter()
             try:
-                self.folder.mkdir(parents=True, exist_ok=True)
+                commit = commit_of(kg, table.version)
+                if commit is None or self._holds == (table.version, commit):  # nothing to write: the file has it
+                    return
+                view = table.view  # the next compile may take it meanwhile (take_view): the next start then makes one
+                kept = dataclasses.replace(table, decisions=dict(table.decisions), view=view.detached() if view is not None else None,
+                                           kept_in=None, _measured={}, _evidenced=set())
+                head = {"format": FORMAT, "code": code_digest(), "location": self.location, "version": table.version, "commit": commit}
+                self.folder.mkdir(mode=0o700, parents=True, exist_ok=True)
                 fd, tmp = tempfile.mkstemp(prefix=self.path.name, suffix=".tmp", dir=self.folder)
                 with os.fdopen(fd, "wb") as f:
                     pickle.dump(head, f, protocol=pickle.HIGHEST_PROTOCOL)
@@ -167,9 +170,17 @@ class CompiledCache:
 
 
 def _prune(folder: Path) -> None:
-    files = sorted(folder.glob("*.pickle"), key=lambda p: p.stat().st_mtime, reverse=True)
+    """Keep the ``KEEP`` most recently used tables, and no temporary file of a writer killed an hour ago or more;
+    another process pruning the same folder at the same time is no error."""
+    def mtime(path: Path) -> float:
+        try:
+            return path.stat().st_mtime
+        except OSError:
+            return 0.0
+
+    files = sorted(folder.glob("*.pickle"), key=mtime, reverse=True)
     for old in files[KEEP:]:
         old.unlink(missing_ok=True)
-    for tmp in folder.glob("*.tmp"):  # a writer killed mid-write
-        if time.time() - tmp.stat().st_mtime > 3600:
+    for tmp in folder.glob("*.tmp"):
+        if time.time() - mtime(tmp) > 3600:
             tmp.unlink(missing_ok=True)

@@ -111,7 +111,8 @@ def load_rules(kg: KnowledgeGraph) -> list[SparqlRule]:
 
 
 CONTEXT_INDEX = "ctx_"
-"""Prefix of the variables ``contextualise`` projects (``?ctx_agent`` …); a rule must not bind them itself."""
+"""Prefix of the variables ``contextualise`` projects (``?ctx_agent`` …); a rule must not use them (``check_rule``)."""
+_CONTEXT_VARIABLE = re.compile(r"[?$]" + CONTEXT_INDEX)
 
 
 def contextualise(query: str, dimensions: Sequence[str], values: Sequence[Sequence[URIRef | None]]) -> str:
@@ -141,8 +142,11 @@ def contextualise(query: str, dimensions: Sequence[str], values: Sequence[Sequen
 
 
 def check_rule(query: str, dimensions: Sequence[str]) -> None:
-    """Refuse a rule that does not parse, calls SERVICE, or does not return ?extractor and ?reason (before it is stored)."""
+    """Refuse a rule that does not parse, calls SERVICE, uses the engine's ``?ctx_…`` variables (``contextualise``), or
+    does not return ?extractor and ?reason (before it is stored)."""
     refuse_unsafe_query(query)
+    if _CONTEXT_VARIABLE.search(query):
+        raise BadInput(f"a pruning rule must not use variables named ?{CONTEXT_INDEX}…: the engine binds them to say which context a row is for")
     try:
         probe = ox.Store().query(contextualise(query, dimensions, [[None]] * len(dimensions)))
     except SyntaxError as e:

@@ -31,6 +31,7 @@ REPORTER = REPORTERS["carol"]
 TEST_ENV = {
     "NFEX_TOKENS": f"alice:{EDITOR}:editor,bob:{READER}:reader," + ",".join(f"{n}:{t}:reporter" for n, t in REPORTERS.items()),
     "NFEX_LOG_LEVEL": "info",
+    "NFEX_COMPILED_CACHE": "none",  # no kept tables in the developer's cache (tests/service/test_restart.py sets one)
     "NFEX_LOG_JSON": "true",
     "NFEX_SPARQL_TIMEOUT_S": "1.5",
     "NFEX_SPARQL_MAX_BYTES": "262144",
@@ -56,7 +57,7 @@ class Service:
 
 def start_service(store: str, log: Path, extra_env: dict[str, str] | None = None) -> Service:
     port = free_port()
-    env = dict(os.environ, NFEX_STORE=store, **TEST_ENV, **(extra_env or {}))
+    env = {**os.environ, "NFEX_STORE": store, **TEST_ENV, **(extra_env or {})}
     proc = subprocess.Popen(
         [sys.executable, "-m", "nfex_core.cli.main", "serve", "--port", str(port), "--log-level", "info"],
         env=env, stdout=log.open("wb"), stderr=subprocess.STDOUT,

@@ -28,6 +28,18 @@ def test_the_memo_gives_what_a_fresh_conversion_gives(items: list[object], as_wr
         assert got == want and type(got) is type(want) and str(got) == str(want)
 
 
+def test_terms_alike_in_text_stay_apart() -> None:
+    """The memo is keyed by the whole term: the same text as an IRI, a plain, typed or tagged literal, read
+    as written or canonically, is converted to four different terms, each every time."""
+    decimal = ox.NamedNode(XSD + "decimal")
+    items = [ox.Literal("1.50", datatype=decimal), ox.Literal("1.50"), ox.Literal("1.50", language="en"), ox.NamedNode("https://example.org/1.50")]
+    for _ in range(2):
+        plain_read = [term_converter()(t) for t in items]
+        written = [term_converter(as_written=True)(t) for t in items]
+        assert len(set(plain_read)) == 4 and str(plain_read[0]) == "1.5"  # canonical: the memo of one mode…
+        assert str(written[0]) == "1.50"  # …is not the other's
+
+
 def test_the_memo_is_bounded(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(terms, "CONVERTED_MAX", 5)
     convert = term_converter()

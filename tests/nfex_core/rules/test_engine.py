@@ -139,8 +139,8 @@ def test_evaluate_gives_each_context_its_index_in_product_order() -> None:
     ex = "https://example.org/"
     store = EmbeddedBackend(None)
     store.update(f"INSERT DATA {{ <{ex}ORB> <{ex}badUnder> <{ex}dark>, <{ex}car> . <{ex}SIFT> <{ex}badUnder> <{ex}drone> }}")
-    dims = ["light", "agent"]
-    values = [[URIRef(ex + "dark"), URIRef(ex + "bright"), None], [URIRef(ex + "car"), URIRef(ex + "drone"), None]]
+    dims = ["light", "agent"]  # of different lengths, so that strides swapped would not go unnoticed
+    values = [[URIRef(ex + "dark"), URIRef(ex + "bright"), None], [URIRef(ex + "car"), URIRef(ex + "drone"), URIRef(ex + "human"), None]]
     q = (f"SELECT ?extractor ?reason WHERE {{ ?extractor <{ex}badUnder> ?c . FILTER (?c IN (?light, ?agent)) "
          'BIND (STR(?c) AS ?reason) }')
     found = evaluate(store, SparqlRule(URIRef(ex + "r"), "r", q), contextualise(q, dims, values))
@@ -158,3 +158,5 @@ def test_check_rule() -> None:
         check_rule("SELECT ?extractor ?reason WHERE { ?extractor a }", DIMS)
     with pytest.raises(BadInput, match=r"\?reason"):
         check_rule("SELECT ?extractor WHERE { ?extractor a ?t }", DIMS)
+    with pytest.raises(BadInput, match=r"\?ctx_"):  # the engine's: a rule's own would shift the context index
+        check_rule("SELECT ?extractor ?reason ?ctx_extra WHERE { ?extractor a ?ctx_extra }", DIMS)
