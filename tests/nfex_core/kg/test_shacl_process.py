@@ -8,8 +8,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from nfex_core.kg import ChangeSet, KnowledgeGraph, parse_rdf
-from nfex_core.kg import shacl_process
+from nfex_core.kg import ChangeSet, KnowledgeGraph, parse_rdf, shacl_process
 from nfex_core.kg.shacl_process import ShaclProcess
 from nfex_core.kg.validation import Report, run_pyshacl, shapes_in, validate_change
 
