@@ -19,7 +19,6 @@ import hashlib
 import logging
 import os
 import re
-import tempfile
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,6 +27,7 @@ import pyoxigraph as ox
 import rdflib
 from rdflib.term import Node, URIRef
 
+from .caches import prune, write_atomically
 from .config import Settings
 from .kg.changes import graph_triples
 from .kg.history import ChangeText
@@ -125,24 +125,9 @@ def seed_content(settings: Settings, compute: Callable[[Settings], Iterable[Trip
 
 
 def _store(path: Path, lines: tuple[str, ...]) -> None:
-    tmp: str | None = None
+    """Cache the seed; the KEEP most recently used seeds are kept (each edit of ontology/ or rules/ makes another)."""
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=path.name, suffix=".tmp", dir=path.parent)
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write("\n".join(lines) + "\n")
-        os.replace(tmp, path)
-        tmp = None
-        _prune(path.parent)
+        write_atomically(path, lambda f: f.write(("\n".join(lines) + "\n").encode("utf-8")))
+        prune(path.parent, "*.nt", KEEP)
     except OSError as e:
         log.warning("cannot cache the seed in %s: %s", path.parent, e)
-    finally:
-        if tmp is not None:
-            Path(tmp).unlink(missing_ok=True)
-
-
-def _prune(folder: Path) -> None:
-    """Keep the KEEP most recently used seeds (each edit of ontology/ or rules/ makes another)."""
-    files = sorted(folder.glob("*.nt"), key=lambda p: p.stat().st_mtime, reverse=True)
-    for old in files[KEEP:]:
-        old.unlink(missing_ok=True)

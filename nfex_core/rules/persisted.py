@@ -28,16 +28,16 @@ import logging
 import os
 import pickle
 import sys
-import tempfile
 import threading
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, BinaryIO
 
 import numpy
 import pyoxigraph as ox
 import rdflib
 
+from ..caches import prune, write_atomically
 from ..kg.claims import META
 from ..kg.history import version_iri
 from ..kg.terms import n3
@@ -140,7 +140,6 @@ class CompiledCache:
 
     def save(self, kg: KnowledgeGraph, table: RuleTable) -> None:
         """Write ``table`` (its evidence view detached) for the next start; a failure is logged, not raised."""
-        tmp: str | None = None
         with self._saving:
             started = time.perf_counter()
             try:
@@ -151,36 +150,16 @@ class CompiledCache:
                 kept = dataclasses.replace(table, decisions=dict(table.decisions), view=view.detached() if view is not None else None,
                                            kept_in=None, _measured={}, _evidenced=set())
                 head = {"format": FORMAT, "code": code_digest(), "location": self.location, "version": table.version, "commit": commit}
-                self.folder.mkdir(mode=0o700, parents=True, exist_ok=True)
-                fd, tmp = tempfile.mkstemp(prefix=self.path.name, suffix=".tmp", dir=self.folder)
-                with os.fdopen(fd, "wb") as f:
+
+                def write(f: BinaryIO) -> None:
                     pickle.dump(head, f, protocol=pickle.HIGHEST_PROTOCOL)
                     pickle.dump(kept, f, protocol=pickle.HIGHEST_PROTOCOL)
-                os.replace(tmp, self.path)
-                tmp = None
+
+                write_atomically(self.path, write, folder_mode=0o700)  # pickles: this user's only
                 self._holds = (table.version, commit)
-                _prune(self.folder)
+                prune(self.folder, "*.pickle", KEEP)
                 log.info("compiled table of version %d written to %s in %.0f ms", table.version, self.path,
                          (time.perf_counter() - started) * 1000)
             except Exception as e:  # the next start compiles, as without the file
                 log.warning("cannot keep the compiled table in %s: %s", self.folder, e)
-            finally:
-                if tmp is not None:
-                    Path(tmp).unlink(missing_ok=True)
 
-
-def _prune(folder: Path) -> None:
-    """Keep the ``KEEP`` most recently used tables, and no temporary file of a writer killed an hour ago or more;
-    another process pruning the same folder at the same time is no error."""
-    def mtime(path: Path) -> float:
-        try:
-            return path.stat().st_mtime
-        except OSError:
-            return 0.0
-
-    files = sorted(folder.glob("*.pickle"), key=mtime, reverse=True)
-    for old in files[KEEP:]:
-        old.unlink(missing_ok=True)
-    for tmp in folder.glob("*.tmp"):
-        if time.time() - mtime(tmp) > 3600:
-            tmp.unlink(missing_ok=True)
