@@ -88,9 +88,9 @@ def configuration_graph(vocab: Vocabulary, extractor: str, params: dict[str, Any
 
 
 def measurement_graph(vocab: Vocabulary, fb: Feedback, *, run_exists: bool = False, now: datetime | None = None,
-                      configuration: bool = True) -> tuple[rdflib.Graph, URIRef]:
-    """The Measurement for ``fb`` with its configuration, sequence, run and agent (``configuration=False``: the
-    configuration's own triples left out, for a writer that has them already: ``ReportWriter``)."""
+                      configuration: URIRef | None = None) -> tuple[rdflib.Graph, URIRef]:
+    """The Measurement for ``fb`` with its configuration, sequence, run and agent (``configuration``: the
+    configuration's IRI, its own triples left out, for a writer that has them already: ``ReportWriter``)."""
     now = now or datetime.now(UTC)
     context = vocab.check_context(fb.context)
     frames = fb.frames
@@ -106,11 +106,7 @@ def measurement_graph(vocab: Vocabulary, fb: Feedback, *, run_exists: bool = Fal
     if all(v is None for v in measured):
         raise BadInput("feedback must report at least one of ate_rmse, rpe_rmse, tracking_lost, tracking_failed, mean_inliers, mean_matches")
 
-    if configuration:
-        g, cfg = configuration_graph(vocab, fb.extractor, fb.params)
-    else:
-        spec = vocab.extractor(fb.extractor)
-        g, cfg = rdflib.Graph(), identity.configuration_iri(spec.name, spec.resolve(fb.params))
+    g, cfg = configuration_graph(vocab, fb.extractor, fb.params) if configuration is None else (rdflib.Graph(), configuration)
     m = identity.measurement_iri()
     seq = records.sequence_triples(g, fb.dataset, fb.sequence)  # the sweeps' node for the same sequence
     agent = identity.reporter_iri(fb.reporter)
@@ -195,8 +191,9 @@ class ReportWriter:
         built: list[tuple[frozenset[Any], URIRef] | BaseException] = []
         for fb in reports:
             try:
-                g, m = measurement_graph(vocab, fb, run_exists=feedback_run_iri(fb, now) in existing, now=now, configuration=False)
-                built.append((graph_triples(g) | self._configuration(vocab, fb), m))
+                cfg, cfg_triples = self._configuration(vocab, fb)
+                g, m = measurement_graph(vocab, fb, run_exists=feedback_run_iri(fb, now) in existing, now=now, configuration=cfg)
+                built.append((graph_triples(g) | cfg_triples, m))
             except NfexError as e:  # bad input fails alone, before anything is written
                 built.append(e)
         good = [(i, b) for i, b in enumerate(built) if not isinstance(b, BaseException)]
@@ -227,8 +224,8 @@ class ReportWriter:
                         out[i] = err
         return out
 
-    def _configuration(self, vocab: Vocabulary, fb: Feedback) -> frozenset[Any]:
-        """The triples of ``fb``'s configuration (``configuration_graph``), kept per IRI while the vocabulary is the same."""
+    def _configuration(self, vocab: Vocabulary, fb: Feedback) -> tuple[URIRef, frozenset[Any]]:
+        """``fb``'s configuration: its IRI and triples (``configuration_graph``), kept per IRI while the vocabulary is the same."""
         known, made = self._configurations
         if known is not vocab:
             made = {}
@@ -240,7 +237,7 @@ class ReportWriter:
             if len(made) >= 1024:  # a bound, not a policy: thousands of distinct Θ in a stream are made again
                 made.clear()
             found = made[iri] = graph_triples(configuration_graph(vocab, fb.extractor, fb.params)[0])
-        return found
+        return iri, found
 
     def _commit_together(self, reports: Sequence[Feedback], items: Sequence[tuple[int, tuple[frozenset[Any], URIRef]]],
                          out: list[Written | BaseException]) -> None:
