@@ -4,7 +4,7 @@ report fails alone."""
 from __future__ import annotations
 
 import threading
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 
 import pytest
@@ -15,25 +15,36 @@ from nfex_core.kg import KnowledgeGraph
 from nfex_core.kg.batch import Batcher
 
 
+class Held:
+    """A flush that records its batches and holds the first ones (``hold``) until ``gate`` is set; each item's result
+    is ``result(item)``."""
+
+    def __init__(self, hold: int | None = 1, result: Callable[[int], int | BaseException] = lambda i: i) -> None:
+        self.gate, self.started = threading.Event(), threading.Event()
+        self.batches: list[list[int]] = []
+        self.hold, self.result = hold, result
+
+    def __call__(self, items: Sequence[int]) -> list[int | BaseException]:
+        self.batches.append(list(items))
+        self.started.set()
+        if self.hold is None or len(self.batches) <= self.hold:
+            assert self.gate.wait(10)
+        return [self.result(i) for i in items]
+
+    def release_when_queued(self, batcher: Batcher[int, int], n: int) -> None:
+        while len(batcher._queue) < n:  # noqa: SLF001 - the test waits until they are queued
+            threading.Event().wait(0.005)
+        self.gate.set()
+
+
 def test_items_queued_during_a_flush_form_one_batch_and_each_caller_gets_its_own_result() -> None:
-    gate = threading.Event()
-    first = threading.Event()
-    batches: list[list[int]] = []
-
-    def flush(items: Sequence[int]) -> list[int | BaseException]:
-        batches.append(list(items))
-        first.set()
-        assert gate.wait(10)
-        return [ValueError(f"bad {i}") if i == 13 else i * 10 for i in items]
-
+    flush = Held(hold=None, result=lambda i: ValueError(f"bad {i}") if i == 13 else i * 10)
     batcher: Batcher[int, int] = Batcher(flush, max_items=64, window_s=0.0)
     with ThreadPoolExecutor(12) as pool:
         head = pool.submit(batcher.submit, 0)
-        assert first.wait(5)  # the first item is being flushed (held); these eleven queue meanwhile
+        assert flush.started.wait(5)  # the first item is being flushed (held); these eleven queue meanwhile
         rest = {i: pool.submit(batcher.submit, i) for i in range(10, 21)}
-        while len(batcher._queue) < 11:  # noqa: SLF001 - the test waits until all are queued
-            threading.Event().wait(0.005)
-        gate.set()
+        flush.release_when_queued(batcher, 11)
         assert head.result(5) == 0
         for i, f in rest.items():
             if i == 13:
@@ -41,24 +52,14 @@ def test_items_queued_during_a_flush_form_one_batch_and_each_caller_gets_its_own
                     f.result(5)
             else:
                 assert f.result(5) == i * 10
-    assert batches == [[0], list(range(10, 21))] and batcher.batches == 2 and batcher.items == 12
+    assert flush.batches == [[0], list(range(10, 21))] and batcher.batches == 2 and batcher.items == 12
 
 
 def test_the_callers_a_flush_answered_join_the_items_queued_during_it() -> None:
     """A batch opens when the last flush ends and expects the callers it answered and the items waiting: a fleet's
     clients, each posting again once answered, join the reports that queued meanwhile instead of those going off
     alone (three and one, round after round), and the batch goes as soon as they are in, not after the window."""
-    gate = threading.Event()
-    started = threading.Event()
-    batches: list[list[int]] = []
-
-    def flush(items: Sequence[int]) -> list[int | BaseException]:
-        batches.append(list(items))
-        started.set()
-        if len(batches) == 1:
-            assert gate.wait(10)
-        return list(items)
-
+    flush = Held()
     batcher: Batcher[int, int] = Batcher(flush, max_items=64, window_s=60.0)  # a minute: the results would time out
 
     def client(i: int) -> int:  # answered, it reports again at once
@@ -66,37 +67,24 @@ def test_the_callers_a_flush_answered_join_the_items_queued_during_it() -> None:
 
     with ThreadPoolExecutor(2) as pool:
         first = pool.submit(client, 1)
-        assert started.wait(5)
+        assert flush.started.wait(5)
         queued = pool.submit(batcher.submit, 2)  # arrives while the first batch is being flushed
-        while len(batcher._queue) < 1:  # noqa: SLF001 - the test waits until it is queued
-            threading.Event().wait(0.005)
-        gate.set()
+        flush.release_when_queued(batcher, 1)
         assert first.result(10) == 1 + 101 and queued.result(10) == 2
-    assert batches == [[1], [2, 101]]
+    assert flush.batches == [[1], [2, 101]]
 
 
 def test_a_caller_that_does_not_come_back_costs_one_window() -> None:
-    gate = threading.Event()
-    started = threading.Event()
-    batches: list[list[int]] = []
-
-    def flush(items: Sequence[int]) -> list[int | BaseException]:
-        batches.append(list(items))
-        started.set()
-        assert gate.wait(10)
-        return list(items)
-
+    flush = Held(hold=None)
     batcher: Batcher[int, int] = Batcher(flush, max_items=64, window_s=0.2)
     with ThreadPoolExecutor(2) as pool:
         first = pool.submit(batcher.submit, 1)
-        assert started.wait(5)
+        assert flush.started.wait(5)
         second = pool.submit(batcher.submit, 2)
-        while len(batcher._queue) < 1:  # noqa: SLF001 - the test waits until it is queued
-            threading.Event().wait(0.005)
-        gate.set()
+        flush.release_when_queued(batcher, 1)
         assert first.result(10) == 1 and second.result(10) == 2  # 2 expected 1 to come back: it went after the window
         assert batcher._expected == 1  # noqa: SLF001 - and the next batch expects one again
-    assert batches == [[1], [2]]
+    assert flush.batches == [[1], [2]]
 
 
 def test_a_lone_item_goes_at_once() -> None:
