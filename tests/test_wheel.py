@@ -56,3 +56,29 @@ def test_an_installed_wheel_answers_from_the_full_graph(tmp_path: Path) -> None:
     assert any((c.get("evidence") or {}).get("windows") for c in sel["candidates"])
     reasons = [b["kind"] for c in sel["candidates"] for a in c["adjustments"] for b in a["because"]]
     assert "measured" in reasons
+
+    # the service's SHACL worker, started from the wheel, imports the wheel's nfex_core and judges as this process
+    check = """
+import json
+from rdflib import Literal, URIRef
+from nfex_core.knowledge import open_graph
+from nfex_core.kg import ChangeSet
+from nfex_core.kg.validation import validate_change
+N = "https://w3id.org/nfex#"
+kg = open_graph()
+shapes = kg.shapes()
+bad = ChangeSet.adding([(URIRef(N + "cfg_w"), URIRef(N + "ofExtractor"), URIRef(N + "ORB")),
+                        (URIRef(N + "cfg_w"), URIRef("http://www.w3.org/1999/02/22-rdf-syntax-ns#type"), URIRef(N + "Configuration")),
+                        (URIRef(N + "cfg_w"), URIRef(N + "hasSetting"), URIRef(N + "cfg_w_sf")),
+                        (URIRef(N + "cfg_w_sf"), URIRef("http://www.w3.org/1999/02/22-rdf-syntax-ns#type"), URIRef(N + "ParameterSetting")),
+                        (URIRef(N + "cfg_w_sf"), URIRef(N + "parameter"), URIRef(N + "ORB_scaleFactor")),
+                        (URIRef(N + "cfg_w_sf"), URIRef(N + "value"), Literal(0.5))])
+here = validate_change(kg.backend, bad, shapes)
+worker = kg.use_shacl_process()
+there = validate_change(kg.backend, bad, shapes, worker.run)
+print(json.dumps({"same": there == here, "conforms": there.conforms, "package": worker.worker_package, **worker.status()}))
+kg.close()
+"""
+    out = json.loads(_run([str(python), "-c", check], cwd=work, env=env).stdout.strip().splitlines()[-1])
+    assert out["same"] and not out["conforms"] and out["fallbacks"] == 0 and out["starts"] == 1
+    assert Path(out["package"]).is_relative_to(venv), out["package"]

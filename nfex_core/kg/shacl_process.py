@@ -115,7 +115,7 @@ def main() -> None:
     sys.stdout = sys.stderr
     from . import validation  # noqa: F401  (pySHACL and rdflib's SPARQL, imported before the first request)
 
-    _send(replies, ("ready", None))
+    _send(replies, ("ready", str(Path(__file__).resolve().parents[1])))  # which nfex_core it imported
     while True:
         try:
             request = _receive(requests)
@@ -133,6 +133,7 @@ class ShaclProcess:
         self._closed = False
         self.fallbacks = 0  # validations that ran in this process because the worker failed (tests, logs)
         self.starts = 0
+        self.worker_package: str | None = None  # the nfex_core folder the last worker imported (the parent's, by -P)
 
     def _worker(self) -> subprocess.Popen[bytes]:
         """The running worker, started if there is none (under ``_lock``)."""
@@ -147,7 +148,7 @@ class ShaclProcess:
         self._proc = proc
         self.starts += 1
         assert proc.stdout is not None
-        _receive(proc.stdout)  # "ready": imports done
+        _, self.worker_package = _receive(proc.stdout)  # "ready": imports done
         return proc
 
     def _stop(self) -> None:
