@@ -35,17 +35,17 @@ import io
 import logging
 import tempfile
 from collections import Counter
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence, Set
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import pyoxigraph as ox
-from rdflib.term import Literal, URIRef
+from rdflib.term import Literal, Node, URIRef
 
 from ..kg.backends import EmbeddedBackend
 from ..kg.claims import META
-from ..kg.footprint import pairs
+from ..kg.footprint import Delta
 from ..kg.history import HEAD, ChangeText
 from ..kg.terms import py
 from ..namespaces import NFEX
@@ -105,11 +105,11 @@ class EvidenceView:
     quarantined: frozenset[str]
     summary: frozenset[str]
     incremental: bool = False  # made from an earlier view (else from a dump of the stored graph)
-    touched: frozenset[tuple[str, str]] | None = None  # the (predicate, object) of every triple the advance added or removed; None: unknown
+    delta: Delta | None = None  # the triples by which the advance changed the view (kg/footprint.py); None: unknown
 
     def detached(self) -> EvidenceView:
         """This view without its store: what the table kept on disk holds (rules/persisted.py). Advanced, it says what
-        changed (``touched``) without a store to change, so compiles whose change no rule reads (a report waiting for
+        changed (``delta``) without a store to change, so compiles whose change no rule reads (a report waiting for
         corroboration) need no copy of the graph; the first compile that must run a rule makes a fresh view."""
         return EvidenceView(self.version, None, self.quarantined, self.summary)
 
@@ -132,8 +132,8 @@ class EvidenceView:
             return evidence_view(kg, admission, summary)
         quarantined = frozenset(admission.quarantined)
         if self.backend is None:
-            touched = _touched(kg, change, self.quarantined, quarantined, self.summary ^ summary)
-            return EvidenceView(head, None, quarantined, summary, incremental=True, touched=touched)
+            delta = _delta(kg, change, self.quarantined, quarantined, self.summary, summary)
+            return EvidenceView(head, None, quarantined, summary, incremental=True, delta=delta)
         store: ox.Store = self.backend._store
         text = ChangeText.of(change)
         _delete_data(store, sorted(self.summary - summary))
@@ -149,31 +149,57 @@ class EvidenceView:
             store.load(dump.getvalue(), format=ox.RdfFormat.N_TRIPLES)
             version = _settled(kg, head)  # read from the store: pinned to ``head`` only if no commit landed since
         _insert_data(store, sorted(summary - self.summary))
-        touched = _touched(kg, change, self.quarantined, quarantined, self.summary ^ summary)
-        return EvidenceView(version, self.backend, quarantined, summary, incremental=True, touched=touched)
+        delta = _delta(kg, change, self.quarantined, quarantined, self.summary, summary)
+        return EvidenceView(version, self.backend, quarantined, summary, incremental=True, delta=delta)
+
+    def holds(self, kg: KnowledgeGraph, triples: Set[tuple[URIRef, URIRef, URIRef]]) -> set[tuple[URIRef, URIRef, URIRef]] | None:
+        """Which of ``triples`` (IRIs only) this view holds, for kg/footprint.py ``change_reads``: asked of its store,
+        or, detached, of the stored graph less the quarantined plus the summaries — None where the store has moved
+        past this view's version (it then cannot tell)."""
+        if not triples:
+            return set()
+        values = " ".join(f"(<{s}> <{p}> <{o}>)" for s, p, o in triples)
+        query = f"SELECT ?s ?p ?o WHERE {{ VALUES (?s ?p ?o) {{ {values} }} ?s ?p ?o }}"
+        found = {(r["s"], r["p"], r["o"]) for r in (self.backend if self.backend is not None else kg.backend).select(query).rows}
+        if self.backend is not None:
+            return {t for t in triples if t in found}
+        if kg.version != self.version:
+            return None
+        summary = set(_summary_triples(self.summary))
+        return {t for t in triples if (t in found and str(t[0]) not in self.quarantined) or t in summary}
 
 
-def _touched(kg: KnowledgeGraph, change: ChangeSet, before: frozenset[str], after: frozenset[str],
-             summary: Iterable[str]) -> frozenset[tuple[str, str]] | None:
-    """The (predicate, object) pairs of the triples by which the view changed, for kg/footprint.py ``reads``;
-    None where they are not known here: a Measurement left quarantine, or one that had triples before the
-    change entered it (its stored triples come or go whole). A triple of a Measurement quarantined on both
-    sides of the change never was in the view, nor was one added for a Measurement quarantined on arrival."""
+def _summary_triples(lines: Iterable[str]) -> Iterator[tuple[URIRef, URIRef, Node]]:
+    """The triples of summary lines (``summary_lines``: IRIs, and typed literals ``"v"^^<datatype>``)."""
+    for line in lines:
+        s, p, o = line[:-2].split(" ", 2)
+        if o.startswith("<"):
+            yield URIRef(s[1:-1]), URIRef(p[1:-1]), URIRef(o[1:-1])
+        else:
+            value, datatype = o.rsplit("^^", 1)
+            yield URIRef(s[1:-1]), URIRef(p[1:-1]), Literal(value[1:-1], datatype=URIRef(datatype[1:-1]))
+
+
+def _delta(kg: KnowledgeGraph, change: ChangeSet, before: frozenset[str], after: frozenset[str],
+           summary_before: frozenset[str], summary_after: frozenset[str]) -> Delta | None:
+    """The triples by which the view changed, for kg/footprint.py; None where they are not known here: a
+    Measurement left quarantine, or one that had triples before the change entered it (its stored triples come
+    or go whole). A triple of a Measurement quarantined on both sides of the change never was in the view, nor
+    was one added for a Measurement quarantined on arrival."""
     arrived = after - before
     if before - after:
         return None
     if arrived:
-        added = Counter(str(t[0]) for t in change.added if str(t[0]) in arrived)
+        counts = Counter(str(t[0]) for t in change.added if str(t[0]) in arrived)
         values = " ".join(f"<{m}>" for m in sorted(arrived))
         rows = kg.backend.select(f"SELECT ?m (COUNT(*) AS ?n) WHERE {{ VALUES ?m {{ {values} }} ?m ?p ?o }} GROUP BY ?m").rows
-        if any(int(py(r["n"])) != added[str(r["m"])] for r in rows):
+        if any(int(py(r["n"])) != counts[str(r["m"])] for r in rows):
             return None  # it had triples before the change: they left the view
-    out = set(pairs(t for t in change.added if str(t[0]) not in after))
-    out |= pairs(t for t in change.removed if str(t[0]) not in before)
-    for line in summary:
-        _, p, o = line.split(" ", 2)
-        out.add((p[1:-1], o[1:-3] if o.startswith("<") else o))
-    return frozenset(out)
+    added: set[tuple[Node, Node, Node]] = {t for t in change.added if str(t[0]) not in after}
+    removed: set[tuple[Node, Node, Node]] = {t for t in change.removed if str(t[0]) not in before}
+    added.update(_summary_triples(summary_after - summary_before))
+    removed.update(_summary_triples(summary_before - summary_after))
+    return Delta(frozenset(added), frozenset(removed))
 
 
 def _delete_data(store: ox.Store, lines: Sequence[str]) -> None:

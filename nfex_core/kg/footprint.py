@@ -6,17 +6,28 @@ answer of a query with a footprint is a function of the graph's triples that mat
 or removes none of those leaves the answer as it was. The rule engine keeps a SPARQL rule's last hits on that
 ground (rules/engine.py), and the observation index reads nothing again for a change that misses the
 observations' queries (evidence/index.py).
+
+A footprint is blind to subjects: every report adds ``?m a nfex:Measurement ; nfex:underCondition …``, so a rule
+that counts Measurements under agent = car and motion = fast reads every report. ``anchors`` keeps, for each
+pattern, the *star* of its subject: the constant triples ``?m p o`` its basic graph pattern asks of that same
+variable. A solution of a BGP that binds ?m to s uses a triple t = (s, p, o) only if s has the whole star in that
+graph, so a changed triple matters to the BGP only where its subject has the star — after the change for an added
+triple, before it for a removed one (``change_reads``). The answer of a query is a function of its BGPs'
+solutions (SPARQL 1.1 §18.5: the graph is read at BGPs and property paths only), so a change that alters no
+BGP's solutions leaves it as it was. Only a pattern's first step is anchored to its subject: the later steps of
+``p1/p2``, an inverse or repeated path, and a constant subject are not (any triple of their predicate matters).
 """
 from __future__ import annotations
 
 import functools
-from collections.abc import Collection, Iterable
+from collections.abc import Callable, Collection, Iterable, Set
+from dataclasses import dataclass
 from typing import Any
 
 from rdflib.namespace import RDF
 from rdflib.paths import AlternativePath, InvPath, MulPath, SequencePath
 from rdflib.plugins.sparql.algebra import translateGroupGraphPattern, traverse
-from rdflib.term import URIRef
+from rdflib.term import BNode, Node, URIRef, Variable
 
 from .backends import GraphReader, SelectResult
 from .history import prefix_block
@@ -27,28 +38,53 @@ Footprint = frozenset[tuple[str, str | None]]  # (predicate, object or None: any
 _OPAQUE = {"TriplesBlock", "ServiceGraphPattern", "Graph"}  # patterns not in algebra form, or not of the default graph
 
 
+@dataclass(frozen=True)
+class Anchor:
+    """A triple pattern's reach: triples of ``predicate`` (and ``object``, where constant), which matter only where
+    their subject has every (predicate, object) of ``star`` (empty: any subject)."""
+
+    predicate: URIRef
+    object: URIRef | None
+    star: frozenset[tuple[URIRef, URIRef]]
+
+
+@dataclass(frozen=True)
+class Delta:
+    """What a change added and removed, triple by triple (rdflib terms)."""
+
+    added: frozenset[tuple[Node, Node, Node]]
+    removed: frozenset[tuple[Node, Node, Node]]
+
+    def pairs(self) -> frozenset[tuple[str, str]]:
+        return pairs(self.added) | pairs(self.removed)
+
+
 @functools.lru_cache(maxsize=256)
-def footprint(query: str) -> Footprint | None:
-    """The triples ``query`` can read, as (predicate, object) pairs — the object only for ``rdf:type`` with a
-    constant class, else None (any) — or None where that cannot be told (a variable predicate, a negated
-    property set, a pattern rdflib's algebra leaves unparsed, a query rdflib cannot parse)."""
+def _analysed(query: str) -> tuple[Footprint, tuple[Anchor, ...]] | None:
     try:
         algebra = prepare_query(query).algebra
     except Exception:
         return None
     found: set[tuple[str, str | None]] = set()
+    anchors: set[Anchor] = set()
     opaque = False
 
-    def predicates(path: object) -> bool:
+    def predicates(path: object, star: frozenset[tuple[URIRef, URIRef]], obj: URIRef | None = None) -> bool:
+        """Note ``path``'s predicates; ``star``: what its first step's subject must have (empty: nothing known);
+        ``obj``: the pattern's constant object, for a plain predicate."""
         if isinstance(path, URIRef):
-            found.add((str(path), None))
+            found.add((str(path), str(obj) if obj is not None and path == RDF.type else None))
+            anchors.add(Anchor(path, obj, star))
             return True
-        if isinstance(path, SequencePath | AlternativePath):
-            return all(predicates(a) for a in path.args)
+        none: frozenset[tuple[URIRef, URIRef]] = frozenset()
+        if isinstance(path, SequencePath):
+            return predicates(path.args[0], star) and all(predicates(a, none) for a in path.args[1:])
+        if isinstance(path, AlternativePath):
+            return all(predicates(a, star) for a in path.args)
         if isinstance(path, InvPath):
-            return predicates(path.arg)
+            return predicates(path.arg, none)
         if isinstance(path, MulPath):
-            return predicates(path.path)
+            return predicates(path.path, none)
         return False  # a variable, a negated property set
 
     def visit(node: Any) -> Any:
@@ -65,15 +101,69 @@ def footprint(query: str) -> Footprint | None:
         if name in _OPAQUE:
             opaque = True
         elif name == "BGP":
-            for _, p, o in node.triples:
-                if p == RDF.type and isinstance(o, URIRef):
-                    found.add((str(p), str(o)))
-                elif not predicates(p):
+            stars: dict[Node, set[tuple[URIRef, URIRef]]] = {}
+            for s, p, o in node.triples:
+                if isinstance(s, Variable | BNode) and isinstance(p, URIRef) and isinstance(o, URIRef):
+                    stars.setdefault(s, set()).add((p, o))
+            for s, p, o in node.triples:
+                if not predicates(p, frozenset(stars.get(s, ())), o if isinstance(o, URIRef) else None):
                     opaque = True
         return None
 
     traverse(algebra, visitPre=visit)
-    return None if opaque else frozenset(found)
+    return None if opaque else (frozenset(found), tuple(sorted(anchors, key=repr)))
+
+
+def footprint(query: str) -> Footprint | None:
+    """The triples ``query`` can read, as (predicate, object) pairs — the object only for ``rdf:type`` with a
+    constant class, else None (any) — or None where that cannot be told (a variable predicate, a negated
+    property set, a pattern rdflib's algebra leaves unparsed, a query rdflib cannot parse)."""
+    analysed = _analysed(query)
+    return None if analysed is None else analysed[0]
+
+
+def anchors(query: str) -> tuple[Anchor, ...] | None:
+    """Each triple pattern of ``query`` with the star of its subject (module docstring); None where ``footprint``
+    is None."""
+    analysed = _analysed(query)
+    return None if analysed is None else analysed[1]
+
+
+Holds = Callable[[Set[tuple[URIRef, URIRef, URIRef]]], Set[tuple[URIRef, URIRef, URIRef]] | None]
+
+
+def change_reads(anchors: Iterable[Anchor], delta: Delta, holds: Holds) -> bool:
+    """Whether the change ``delta`` can change the answer of a query with ``anchors``: some changed triple matches a
+    pattern whose subject's star held, after the change for an added triple and before it for a removed one.
+    ``holds(triples)``: which of ``triples`` the graph holds after the change (None: cannot tell); asked once, for
+    the star triples the change itself does not settle (a triple it added is there after and not before; one it
+    removed the other way round; any other is there before exactly when after)."""
+    by_predicate: dict[URIRef, list[Anchor]] = {}
+    for a in anchors:
+        by_predicate.setdefault(a.predicate, []).append(a)
+    wanted: list[tuple[bool, frozenset[tuple[URIRef, URIRef, URIRef]]]] = []  # (after?, a star on one subject)
+    for after, triples in ((True, delta.added), (False, delta.removed)):
+        for s, p, o in triples:
+            for a in by_predicate.get(p, ()):  # type: ignore[call-overload]
+                if a.object is not None and o != a.object:
+                    continue
+                if not a.star:
+                    return True
+                if not isinstance(s, URIRef):
+                    return True
+                wanted.append((after, frozenset((s, sp, so) for sp, so in a.star)))
+    if not wanted:
+        return False
+    unsettled = {t for _, star in wanted for t in star if t not in delta.added and t not in delta.removed}
+    held = holds(unsettled) if unsettled else set()
+    if held is None:
+        return True
+    for after, star in wanted:
+        there = (lambda t: t in delta.added or (t not in delta.removed and t in held)) if after \
+            else (lambda t: t in delta.removed or (t not in delta.added and t in held))
+        if all(there(t) for t in star):
+            return True
+    return False
 
 
 def pairs(triples: Iterable[Triple]) -> frozenset[tuple[str, str]]:

@@ -44,7 +44,7 @@ from ..evidence.index import Diff, ObservationIndex
 from ..evidence.view import EvidenceView, evidence_view, summary_lines
 from ..kg.backends import EmbeddedBackend
 from ..kg.changes import evidence_only
-from ..kg.footprint import reads
+from ..kg.footprint import anchors, change_reads, reads
 from ..kg.vocab import ExtractorSpec, Value
 from . import pruning
 from .persisted import CompiledCache
@@ -226,14 +226,24 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     errors: list[str] = []
     ruled: dict[int, list[tuple[str, Citation]]] = {}
     same = previous is not None and previous.setup is setup
-    touched = made.touched if made is not None else None
+    delta = made.delta if made is not None else None
     # a rule's last hits stand where its query is the same, the extractors are named alike and the view's
-    # change since misses the rule's footprint (kg/footprint.py), whatever else of the configuration changed
-    earlier = previous.hits if previous is not None and touched is not None and previous.setup is not None \
+    # change since misses the rule's footprint, or the stars of its patterns (kg/footprint.py), whatever else of
+    # the configuration changed
+    earlier = previous.hits if previous is not None and delta is not None and previous.setup is not None \
         and _extractor_names(previous.setup) == _extractor_names(setup) else {}
     hits: dict[tuple[pruning.SparqlRule, str], dict[int, list[tuple[str, Citation]]]] = {}
+    touched = delta.pairs() if delta is not None else None
+
+    def changed(k: int) -> bool:
+        if not reads(setup.footprints[k], touched):
+            return False
+        stars = anchors(setup.rules[k].query)
+        view = made
+        return delta is None or view is None or stars is None or change_reads(stars, delta, lambda ts: view.holds(kg, ts))
+
     due = [k for k, (rule, query) in enumerate(zip(setup.rules, setup.queries, strict=True)) if not isinstance(query, Exception)
-           and ((rule, query) not in earlier or reads(setup.footprints[k], touched))]
+           and ((rule, query) not in earlier or changed(k))]
     if made is not None and made.backend is None and due:  # a kept table's detached view (view.py): a rule must run now
         made = evidence_view(kg, admission, summary)
         earlier = {}

@@ -68,7 +68,7 @@ def test_an_advanced_view_equals_a_fresh_view_after_random_changes(shipped_kg: K
     # without its store, the view says the same of what changed: the rules due are the same
     moved = _view(shipped_kg, detached)
     assert moved.backend is None and moved.version == advanced.version
-    assert (moved.touched, moved.quarantined, moved.summary) == (advanced.touched, advanced.quarantined, advanced.summary)
+    assert (moved.delta, moved.quarantined, moved.summary) == (advanced.delta, advanced.quarantined, advanced.summary)
 
 
 def test_a_compile_carries_the_view_and_answers_as_a_full_compile(shipped_kg: KnowledgeGraph, monkeypatch) -> None:  # type: ignore[no-untyped-def]

@@ -285,3 +285,32 @@ def test_an_editors_change_that_no_rule_reads_keeps_every_rules_hits(shipped_kg:
     table = compile_table(shipped_kg, table)
     assert any("relative" in r for r in ran), ran
     _same(table, compile_table(shipped_kg))
+
+
+def test_a_report_outside_a_rules_star_does_not_run_it(bare_kg: KnowledgeGraph, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """The expert rule counts Measurements under agent = car and motion = fast (kg/footprint.py stars): an admitted
+    report under car + dark leaves its hits as they were without running it; one under car + fast runs it, and
+    the prior yields. Each carried table equals a full compile."""
+    bare_kg.update(PREFIXES + "DELETE { nfex:minSources nfex:value ?n } INSERT { nfex:minSources nfex:value 1 } "
+                   "WHERE { OPTIONAL { nfex:minSources nfex:value ?n } }", author="pytest")
+    ran: list[str] = []
+    evaluate = pruning.evaluate
+    monkeypatch.setattr(pruning, "evaluate", lambda view, rule, query: ran.append(rule.label) or evaluate(view, rule, query))
+    expert = "Gradient-histogram descriptors fail on fast car motion"
+    fast = {"agent": "car", "motion": "fast"}
+    table = compile_table(bare_kg)
+    assert "SIFT" in table.decide(fast).pruned
+    writer = ReportWriter(bare_kg, max_items=1)
+    try:
+        # the first report also adds its configuration and the summaries of its conditions, whose
+        # ``nfex:ofExtractor`` the path's second step reads: a second report under the same conditions does not
+        for i, conditions in enumerate(({"agent": "car", "light": "dark"}, {"agent": "car", "light": "dark"}, fast)):
+            ran.clear()
+            writer.write(Feedback("SIFT", {}, conditions, sequence=f"star-{i}", dataset="pytest", reporter="r1", frames=10,
+                                  ate_rmse=0.1, extraction_ms=40.0, width=640, height=480, tracking_lost=0))
+            table = compile_table(bare_kg, table)
+            assert (expert in ran) == (i != 1), ran
+            _same(table, compile_table(bare_kg))
+    finally:
+        writer.close()
+    assert "SIFT" not in table.decide(fast).pruned
