@@ -10,7 +10,7 @@ A compile (rules/engine.py) reads the admitted observations (trust.py) four ways
 Each group holds its observations sorted by IRI, as a full read gives them. ``Grouped.of`` groups them all;
 ``Grouped.advance`` takes the index's Measurements whose row changed (evidence/index.py ``changed``),
 re-admits the reports that share a corroboration key with one of them (the only reports whose admission can
-have changed: trust.py), and touches only the groups those observations were in or are in now — so a report
+have changed: trust.py) where their key's count of reporters moved, and touches only the groups those observations were in or are in now — so a report
 costs the groups it lands in, not a pass over every Measurement. ``dirty`` names the groups touched, for the
 readers that keep an aggregate per group. tests/nfex_core/rules/test_setup.py compares a carried compile with
 a full one after random changes.
@@ -101,15 +101,18 @@ class Grouped:
                 reports.pop(k, None)
         admitted, quarantined = dict(self.admission.admitted), dict(self.admission.quarantined)
         was = set(admitted)
-        recheck = set(changed) | {iri for k in keys for iri in reports.get(k, ())}
+        # a report's admission (and its reason) depends on it and on its key's count of distinct reporters: the
+        # other reports of a key are judged again only where that count moved
+        reporters = {k: len({after[i].reporter for i in reports.get(k, ())}) for k in keys}
+        moved_keys = [k for k in keys if reporters[k] != len({before[i].reporter for i in self.reports.get(k, ())})]
+        recheck = set(changed) | {iri for k in moved_keys for iri in reports.get(k, ())}
         for iri in recheck:
             admitted.pop(iri, None)
             quarantined.pop(iri, None)
             o = after.get(iri)
             if o is None:
                 continue
-            reporters = len({after[i].reporter for i in reports.get(corroboration_key(o), ())}) if o.reporter else 0
-            counts, reason = report_status(o, reporters, policy)
+            counts, reason = report_status(o, reporters[corroboration_key(o)] if o.reporter else 0, policy)
             (admitted if counts else quarantined)[iri] = reason
         moved = {iri for iri in recheck if (iri in was) != (iri in admitted) or iri in changed}
         members: dict[str, dict[Hashable, dict[str, Observation]]] = {r: dict(g) for r, g in self._members.items()}
