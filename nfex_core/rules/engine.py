@@ -62,6 +62,8 @@ if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
 
 log = logging.getLogger("nfex.rules")
+K = TypeVar("K", bound=Hashable)
+V = TypeVar("V")
 _TAKE = threading.Lock()  # RuleTable.take_view
 
 
@@ -98,6 +100,21 @@ class RuleTable:
     kept_in: str | None = field(default=None, repr=False, compare=False)  # the file it was read from (persisted.py), not compiled here
     _measured: dict[ContextKey, dict[str, tuple[MeasuredConfiguration, ...]]] = field(default_factory=dict, repr=False)
     _evidenced: set[ContextKey] = field(default_factory=set, repr=False)
+    # per (context, extractor[, configuration]): what ``measured`` and ``decide`` made of it, with the groups it was made
+    # from; ``made_before`` is the last table's, from which what the same groups give is taken (``_made``)
+    made: dict[tuple[Hashable, ...], tuple[object, Any]] = field(default_factory=dict, repr=False, compare=False)
+    made_before: dict[tuple[Hashable, ...], tuple[object, Any]] | None = field(default=None, repr=False, compare=False)
+
+    def _made(self, key: tuple[Hashable, ...], source: object, make: Callable[[], V]) -> V:
+        """``make()``, or what the last table made of the same ``source`` (the very object: a group a compile
+        carried untouched, engine._per_group) under the same ``key``. Selections after each report then cost
+        what the report changed, not a pass over every measured configuration."""
+        hit = self.made.get(key)
+        if hit is None and self.made_before is not None:
+            hit = self.made_before.get(key)
+        value: V = hit[1] if hit is not None and hit[0] is source else make()
+        self.made[key] = (source, value)
+        return value
 
     def key(self, context: Mapping[str, str | None]) -> ContextKey:
         return tuple(context.get(d) for d in self.dimensions)
@@ -124,15 +141,11 @@ class RuleTable:
         out: dict[str, Evidence] = {}
         if not known:
             return out
+        key = self.key(known)
         for x, groups in self.observed.items():
-            counted = [o for obs in groups.values() if obs[0].counts_under(known) for o in obs]
-            if not counted:
-                continue
-            ates = [o.ate for o in counted if o.ate is not None]
-            costs = [o.extraction_ms for o in counted if o.extraction_ms is not None]
-            agg = robust(ates) if ates else None
-            out[x] = Evidence(agg.value if agg else None, len(counted), robust(costs).value if costs else None,
-                              agg.outliers if agg else 0, tuple(sorted({o.source for o in counted})))
+            found = self._made((key, x), groups, lambda groups=groups: _evidence(groups, known))  # type: ignore[misc]
+            if found is not None:
+                out[x] = found
         return out
 
     def measured(self, context: Mapping[str, str | None]) -> dict[str, tuple[MeasuredConfiguration, ...]]:
@@ -150,17 +163,39 @@ class RuleTable:
         found = {}
         for x, configurations in self.configurations.items():
             ranked = []
-            for iri, (params, observations) in configurations.items():
-                counted = [o for o in observations if o.counts_under(known)]
-                ates = [o.ate for o in counted if o.ate is not None]
-                if len(ates) < self.min_measurements or any(o.failed for o in counted):
-                    continue
-                agg = robust(ates, (o.source for o in counted))
-                ranked.append(MeasuredConfiguration(iri, params, agg.value, agg.windows, agg.outliers, agg.sources))
+            for iri, found_here in configurations.items():
+                params, observations = found_here
+                one = self._made((key, x, iri), found_here,
+                                 lambda iri=iri, p=params, obs=observations: _ranked(iri, p, obs, known, self.min_measurements))  # type: ignore[misc]
+                if one is not None:
+                    ranked.append(one)
             if ranked:
                 found[x] = tuple(sorted(ranked, key=lambda c: (c.ate, c.iri)))
         self._measured[key] = found
         return found
+
+
+def _evidence(groups: Mapping[frozenset[tuple[str, str]], Sequence[Observation]], known: dict[str, str]) -> Evidence | None:
+    """An extractor's evidence under the ``known`` values, from its observations grouped by condition set."""
+    counted = [o for obs in groups.values() if obs[0].counts_under(known) for o in obs]
+    if not counted:
+        return None
+    ates = [o.ate for o in counted if o.ate is not None]
+    costs = [o.extraction_ms for o in counted if o.extraction_ms is not None]
+    agg = robust(ates) if ates else None
+    return Evidence(agg.value if agg else None, len(counted), robust(costs).value if costs else None,
+                    agg.outliers if agg else 0, tuple(sorted({o.source for o in counted})))
+
+
+def _ranked(iri: str, params: dict[str, Value], observations: Sequence[Observation], known: dict[str, str],
+            min_measurements: int) -> MeasuredConfiguration | None:
+    """A measured configuration under the ``known`` values, or None where it is not listed (``RuleTable.measured``)."""
+    counted = [o for o in observations if o.counts_under(known)]
+    ates = [o.ate for o in counted if o.ate is not None]
+    if len(ates) < min_measurements or any(o.failed for o in counted):
+        return None
+    agg = robust(ates, (o.source for o in counted))
+    return MeasuredConfiguration(iri, params, agg.value, agg.windows, agg.outliers, agg.sources)
 
 
 def _measured_configuration(key: tuple[str, str], observations: tuple[Observation, ...], settings: Mapping[str, Mapping[str, Value]],
@@ -177,9 +212,6 @@ def _measured_configuration(key: tuple[str, str], observations: tuple[Observatio
         log.warning("measured configuration %s left out: %s", cfg, e)
         return None
 
-
-K = TypeVar("K", bound=Hashable)
-V = TypeVar("V")
 
 
 def _per_group(groups: Mapping[K, tuple[Observation, ...]], dirty: Collection[K] | None, earlier: Mapping[K, V] | None,
@@ -295,10 +327,19 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
         for (x, cfg), found in measured.items():
             if found is not None:
                 configurations.setdefault(x, {})[cfg] = found
+    # per extractor, its groups by condition set: an extractor no group of which the change touched keeps its
+    # dict, so what ``decide`` made of it is taken over too (``RuleTable._made``)
+    touched_observed = dirty.get("observed")
     observed: dict[str, dict[frozenset[tuple[str, str]], Sequence[Observation]]] = {}
+    if previous is not None and touched_observed is not None:
+        extractors = {cast(str, k[0]) for k in touched_observed}  # type: ignore[index]
+        observed = {x: g for x, g in previous.observed.items() if x not in extractors}
+    else:
+        extractors = None
     for group, obs in grouped.groups["observed"].items():
         extractor, conditions = cast(tuple[str, frozenset[tuple[str, str]]], group)
-        observed.setdefault(extractor, {})[conditions] = obs
+        if extractors is None or extractor in extractors:
+            observed.setdefault(extractor, {})[conditions] = obs
     ms = (time.perf_counter() - t0) * 1000
     log.info("compiled %d contexts (%d rebuilt, configuration %s), %d rules, %d statements at graph version %d in %.0f ms "
              "(observations: %s in %.0f ms)", len(setup.keys), rebuilt, "carried" if same else "read", len(setup.rules),
@@ -306,7 +347,8 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     return RuleTable(version, dims, dict(plain), list(setup.rules), list(setup.statements), errors, ms, cost, setup.budget_terms,
                      configurations, setup.min_measurements, observed, admission, step_checks=dict(setup.step_checks),
                      index=index, view=made, setup=setup, hits=hits, ruled={i: tuple(r) for i, r in ruled.items()}, plain=plain,
-                     grouped=grouped, summary_lines=lines, cost_groups=aggregates, measured_groups=measured)
+                     grouped=grouped, summary_lines=lines, cost_groups=aggregates, measured_groups=measured,
+                     made_before=previous.made if previous is not None and previous.min_measurements == setup.min_measurements else None)
 
 
 Found = dict[int, list[tuple[URIRef, str]]]  # pruning.evaluate's: per context index, the extractors pruned and why

@@ -148,7 +148,7 @@ class CompiledCache:
                     return
                 view = table.view  # the next compile may take it meanwhile (take_view): the next start then makes one
                 kept = dataclasses.replace(table, decisions=dict(table.decisions), view=view.detached() if view is not None else None,
-                                           kept_in=None, _measured={}, _evidenced=set())
+                                           kept_in=None, _measured={}, _evidenced=set(), made={}, made_before=None)
                 head = {"format": FORMAT, "code": code_digest(), "location": self.location, "version": table.version, "commit": commit}
 
                 def write(f: BinaryIO) -> None:
