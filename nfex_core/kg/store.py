@@ -49,6 +49,7 @@ from .sparql_guard import refuse_unsafe_change
 from .sparql_update import change_of_update
 from .terms import Triple, n3, py
 from .validation import (
+    Neighbourhood,
     Report,
     Shapes,
     core_violations,
@@ -85,6 +86,7 @@ class KnowledgeGraph:
         self._cache: dict[str, tuple[int, Any]] = {}
         self._cache_lock = threading.Lock()
         self._vocabulary_footprint: Footprint | None = None  # what loading the vocabulary read (_carry_vocabulary)
+        self._neighbourhood = Neighbourhood()  # what validations read around nodes, kept across commits (validation.py)
         self._listeners: list[Callable[[int], None]] = []
         self.shacl: ShaclProcess | None = None  # where writes run pySHACL: None, in this process (use_shacl_process)
         self._ensure_head()
@@ -244,7 +246,8 @@ class KnowledgeGraph:
             return Report(False, core, "Conforms: False" + "".join(f"\nViolation: {r.line()}" for r in core))
         return self._validate_shapes(change)
 
-    def _validate_shapes(self, change: ChangeSet) -> Report:
+    def _validate_shapes(self, change: ChangeSet, head: int | None = None) -> Report:
+        """``head``: the version the store is at, known under the write lock (the neighbourhoods kept at it are used)."""
         shapes = self.shapes()
         if touches_shapes(change, shapes) or self.version == 0:
             candidate = self.data_graph()
@@ -254,7 +257,8 @@ class KnowledgeGraph:
                 candidate.add(t)
             new_shapes = shapes_in(candidate)
             return validate_graph(candidate, new_shapes)
-        return validate_change(self.backend, change, shapes, self.shacl.run if self.shacl is not None else None)
+        return validate_change(self.backend, change, shapes, self.shacl.run if self.shacl is not None else None,
+                               self._neighbourhood.at(head) if head is not None else None)
 
     # ------------------------------------------------------------------ writing
     def _present(self, triples: Iterable[Triple]) -> set[Triple]:
@@ -304,7 +308,7 @@ class KnowledgeGraph:
                     effective = self._effective(change)
                     if effective.empty:
                         return CommitResult(version=head, changed=False)
-                    report = self._validate_shapes(effective)
+                    report = self._validate_shapes(effective, head)
                     if not report.conforms:
                         raise ValidationFailed(report.violations, report.text, current_version=head)
                     checked = (head, effective, report)
@@ -312,6 +316,7 @@ class KnowledgeGraph:
                 outcome = self._try_commit(effective, head, author, message)
                 if outcome is None:
                     self._carry_shapes(effective, head)
+                    self._neighbourhood.carry(effective, head)
                     self._carry_vocabulary(effective, head)
                     for listener in self._listeners:
                         listener(head + 1)

@@ -79,24 +79,82 @@ def _chunks(items: Iterable[Node], size: int = CHUNK) -> Iterator[list[Node]]:
         yield batch
 
 
-class CandidateView:
-    """Reads of the state the store would have after ``change``, without writing it."""
+class Neighbourhood:
+    """The store's triples around nodes at one graph version, as ``CandidateView`` reads them, carried from one
+    commit to the next for the nodes the commit did not touch (``carry``): a fleet's reports read the same
+    configurations, parameters and condition values batch after batch. Entries are a node's outgoing triples,
+    its incoming ones per predicate filter, and the class hierarchy; a version other than the one carried to
+    clears it, so a write that did not go through ``carry`` (another replica's, a rollback) costs a re-read,
+    never a stale answer. Used under the store's write lock only (``KnowledgeGraph.commit``)."""
 
-    def __init__(self, backend: Backend, change: ChangeSet) -> None:
+    MAX_NODES = 20_000  # past this many entries it starts again empty
+
+    def __init__(self) -> None:
+        self.version = -1
+        self.outgoing: dict[Node, frozenset[Triple]] = {}
+        self.incoming: dict[Node, dict[frozenset[URIRef] | None, frozenset[Triple]]] = {}
+        self.axioms: frozenset[Triple] | None = None
+
+    def at(self, version: int) -> Neighbourhood:
+        """This cache, for reads of the store at ``version`` (emptied unless it holds that version)."""
+        if version != self.version or len(self.outgoing) + len(self.incoming) > self.MAX_NODES:
+            self.clear()
+            self.version = version
+        return self
+
+    def clear(self) -> None:
+        self.version = -1
+        self.outgoing, self.incoming, self.axioms = {}, {}, None
+
+    def carry(self, change: ChangeSet, version: int) -> None:
+        """``change`` took the store from ``version`` to ``version + 1``: forget what it touched."""
+        if version != self.version:
+            self.clear()
+            return
+        for s, p, o in (*change.added, *change.removed):
+            self.outgoing.pop(s, None)
+            self.incoming.pop(o, None)
+            if p == RDFS.subClassOf:
+                self.axioms = None
+        self.version = version + 1
+
+
+class CandidateView:
+    """Reads of the state the store would have after ``change``, without writing it; ``cache``: what the store
+    holds around nodes at its head, where the caller knows the head (``Neighbourhood``)."""
+
+    def __init__(self, backend: Backend, change: ChangeSet, cache: Neighbourhood | None = None) -> None:
         self.backend = backend
         self.change = change
+        self.cache = cache
         self._added_by_s: dict[Node, set[Triple]] = {}
         self._added_by_o: dict[Node, set[Triple]] = {}
         for t in change.added:
             self._added_by_s.setdefault(t[0], set()).add(t)
             self._added_by_o.setdefault(t[2], set()).add(t)
 
+    def _stored(self, nodes: list[Node], kept: dict[Node, frozenset[Triple]] | None, side: int,
+                query: Callable[[str], str]) -> set[Triple]:
+        """The stored triples with ``nodes`` at position ``side`` (0: subject, 2: object), from ``kept`` where it
+        has them, the rest read (``query(values)``) and kept."""
+        missing = nodes if kept is None else [n for n in nodes if n not in kept]
+        out: set[Triple] = set()
+        for batch in _chunks(missing):
+            out |= self.backend.triples(query(" ".join(n3(n) for n in batch)))
+        if kept is not None:
+            per: dict[Node, set[Triple]] = {n: set() for n in missing}
+            for t in out:
+                if t[side] in per:
+                    per[t[side]].add(t)
+            kept.update((n, frozenset(ts)) for n, ts in per.items())
+            for n in nodes:
+                out |= kept[n]
+        return out
+
     def outgoing(self, nodes: Iterable[Node]) -> set[Triple]:
         nodes = [n for n in nodes if isinstance(n, URIRef)]
-        out: set[Triple] = set()
-        for batch in _chunks(nodes):
-            values = " ".join(n3(n) for n in batch)
-            out |= self.backend.triples(f"CONSTRUCT {{ ?s ?p ?o }} WHERE {{ VALUES ?s {{ {values} }} ?s ?p ?o }}")
+        out = self._stored(nodes, self.cache.outgoing if self.cache is not None else None, 0,
+                           lambda values: f"CONSTRUCT {{ ?s ?p ?o }} WHERE {{ VALUES ?s {{ {values} }} ?s ?p ?o }}")
         out -= self.change.removed
         for n in nodes:
             out |= self._added_by_s.get(n, set())
@@ -105,16 +163,20 @@ class CandidateView:
     def incoming(self, nodes: Iterable[Node], predicates: Iterable[URIRef] | None = None) -> set[Triple]:
         """Edges pointing at ``nodes``, except ``rdf:type`` (every instance points at its class)."""
         nodes = [n for n in nodes if isinstance(n, URIRef)]
-        preds = list(predicates) if predicates is not None else None
+        preds = frozenset(predicates) if predicates is not None else None
         if preds is not None and not preds:
             return set()
         pred_filter = (
-            f"VALUES ?p {{ {' '.join(n3(p) for p in preds)} }}" if preds is not None else f"FILTER (?p != {n3(RDF.type)})"
+            f"VALUES ?p {{ {' '.join(n3(p) for p in sorted(preds))} }}" if preds is not None else f"FILTER (?p != {n3(RDF.type)})"
         )
-        out: set[Triple] = set()
-        for batch in _chunks(nodes):
-            values = " ".join(n3(n) for n in batch)
-            out |= self.backend.triples(f"CONSTRUCT {{ ?s ?p ?o }} WHERE {{ VALUES ?o {{ {values} }} ?s ?p ?o . {pred_filter} }}")
+        kept: dict[Node, frozenset[Triple]] | None = None
+        if self.cache is not None:
+            kept = {n: found[preds] for n in nodes if preds in (found := self.cache.incoming.get(n, {}))}
+        out = self._stored(nodes, kept, 2,
+                           lambda values: f"CONSTRUCT {{ ?s ?p ?o }} WHERE {{ VALUES ?o {{ {values} }} ?s ?p ?o . {pred_filter} }}")
+        if self.cache is not None and kept is not None:
+            for n, ts in kept.items():
+                self.cache.incoming.setdefault(n, {})[preds] = ts
         out -= self.change.removed
         for n in nodes:
             for t in self._added_by_o.get(n, set()):
@@ -123,8 +185,13 @@ class CandidateView:
         return out
 
     def subclass_axioms(self) -> set[Triple]:
-        out = self.backend.triples(f"CONSTRUCT {{ ?a {n3(RDFS.subClassOf)} ?b }} WHERE {{ ?a {n3(RDFS.subClassOf)} ?b }}")
-        out -= self.change.removed
+        stored = self.cache.axioms if self.cache is not None else None
+        if stored is None:
+            stored = frozenset(self.backend.triples(
+                f"CONSTRUCT {{ ?a {n3(RDFS.subClassOf)} ?b }} WHERE {{ ?a {n3(RDFS.subClassOf)} ?b }}"))
+            if self.cache is not None:
+                self.cache.axioms = stored
+        out = set(stored) - self.change.removed
         out |= {t for t in self.change.added if t[1] == RDFS.subClassOf}
         return out
 
@@ -389,10 +456,11 @@ Runner = Callable[[Collection[Triple], Shapes, set[Node]], tuple[list[Validation
 """What runs pySHACL on a change's neighbourhood: ``run_pyshacl`` here, or a worker process's (shacl_process.py)."""
 
 
-def validate_change(backend: Backend, change: ChangeSet, shapes: Shapes, run: Runner | None = None) -> Report:
+def validate_change(backend: Backend, change: ChangeSet, shapes: Shapes, run: Runner | None = None,
+                    cache: Neighbourhood | None = None) -> Report:
     """Validate the candidate state on the nodes ``change`` touches (see the module docstring); ``run``: where
-    pySHACL runs (default: in this process)."""
-    view = CandidateView(backend, change)
+    pySHACL runs (default: in this process); ``cache``: the store's neighbourhoods at its head (``Neighbourhood``)."""
+    view = CandidateView(backend, change, cache)
     focus: set[Node] = {s for s in change.subjects() if isinstance(s, URIRef)}
     fp = shapes.footprint
     frontier: set[Node] = {t[0] for t in change.added | change.removed if isinstance(t[0], URIRef) and reads(fp, pairs([t]))}

@@ -187,10 +187,24 @@ def _evidence(groups: Mapping[frozenset[tuple[str, str]], Sequence[Observation]]
                     agg.outliers if agg else 0, tuple(sorted({o.source for o in counted})))
 
 
+def _counting(observations: Sequence[Observation], known: dict[str, str]) -> list[Observation]:
+    """The observations that count under the ``known`` values (``Observation.counts_under``), asked once per
+    condition set: a configuration's windows share a few."""
+    verdicts: dict[frozenset[tuple[str, str]], bool] = {}
+    out = []
+    for o in observations:
+        verdict = verdicts.get(o.conditions)
+        if verdict is None:
+            verdict = verdicts[o.conditions] = o.counts_under(known)
+        if verdict:
+            out.append(o)
+    return out
+
+
 def _ranked(iri: str, params: dict[str, Value], observations: Sequence[Observation], known: dict[str, str],
             min_measurements: int) -> MeasuredConfiguration | None:
     """A measured configuration under the ``known`` values, or None where it is not listed (``RuleTable.measured``)."""
-    counted = [o for o in observations if o.counts_under(known)]
+    counted = _counting(observations, known)
     ates = [o.ate for o in counted if o.ate is not None]
     if len(ates) < min_measurements or any(o.failed for o in counted):
         return None

@@ -191,3 +191,37 @@ def test_a_focused_validation_checks_nested_shapes_and_only_its_focus() -> None:
     assert "Conforms: False" in text
     assert run_pyshacl(data, shapes, {URIRef(ex + "c"), URIRef(ex + "pb")})[0] == []  # pb is b's part: b is not in focus
     assert run_pyshacl(data, shapes, None)[0] == whole  # the kept shapes graph is not left focused
+
+
+@pytest.fixture
+def writable(tmp_path, seeded_template) -> Iterator[tuple[KnowledgeGraph, object, object]]:  # type: ignore[no-untyped-def]
+    import shutil
+
+    shutil.copytree(seeded_template, tmp_path / "store", ignore=shutil.ignore_patterns("LOCK"))
+    kg = KnowledgeGraph.open(str(tmp_path / "store"))
+    kg.add(parse_rdf(BASE), author="test")
+    yield kg, kg.data_graph(), kg.shapes()
+    kg.close()
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@given(data=st.data())
+def test_neighbourhoods_kept_across_commits_read_what_the_store_holds(writable, data) -> None:  # type: ignore[no-untyped-def]
+    """``Neighbourhood``: commit after commit, a validation from the kept neighbourhoods reads the same data graph
+    and gives the same report as one that reads everything from the store."""
+    from nfex_core.kg.validation import validate_change
+
+    kg, base, shapes = writable
+    kinds = [new_configuration(), edit_parameter(base), remove_triple(base), new_condition_value(), new_measurement(), hub_note()]
+    for change in data.draw(st.lists(st.one_of(*kinds), min_size=1, max_size=5)):
+        head = kg.version
+        effective = kg._effective(change)
+        if effective.empty:
+            continue
+        kept = validate_change(kg.backend, effective, shapes, cache=kg._neighbourhood.at(head))
+        fresh = validate_change(kg.backend, effective, shapes)
+        assert (kept.conforms, kept.data_triples, kept.focus_nodes) == (fresh.conforms, fresh.data_triples, fresh.focus_nodes)
+        assert sorted(map(str, kept.violations)) == sorted(map(str, fresh.violations))
+        if kept.conforms:
+            kg.commit(change, author="pytest")  # validated again from the kept neighbourhoods, which it then carries
+            assert kg._neighbourhood.version == kg.version
