@@ -17,6 +17,8 @@ a full one after random changes.
 """
 from __future__ import annotations
 
+import bisect
+import operator
 from collections.abc import Callable, Collection, Hashable, Iterable, Mapping
 from dataclasses import dataclass, field
 
@@ -116,7 +118,7 @@ class Grouped:
             (admitted if counts else quarantined)[iri] = reason
         moved = {iri for iri in recheck if (iri in was) != (iri in admitted) or iri in changed}
         members: dict[str, dict[Hashable, dict[str, Observation]]] = {r: dict(g) for r, g in self._members.items()}
-        dirty: dict[str, set[Hashable]] = {r: set() for r in READERS}
+        dirty: dict[str, dict[Hashable, set[str]]] = {r: {} for r in READERS}  # reader → group → the IRIs moved in or out
         for iri in moved:
             for o, add in ((before.get(iri), False), (after.get(iri), True)):
                 if o is None or not (iri in admitted if add else iri in was):
@@ -124,18 +126,41 @@ class Grouped:
                 for reader, of in READERS.items():
                     for g in of(o):
                         if g not in dirty[reader]:
-                            dirty[reader].add(g)
+                            dirty[reader][g] = set()
                             members[reader][g] = dict(members[reader].get(g, {}))
+                        dirty[reader][g].add(iri)
                         if add:
                             members[reader][g][iri] = o
                         else:
                             members[reader][g].pop(iri, None)
         groups = {r: dict(g) for r, g in self.groups.items()}
         for reader, touched in dirty.items():
-            for g in touched:
+            for g, iris in touched.items():
                 if members[reader][g]:
-                    groups[reader][g] = tuple(members[reader][g][i] for i in sorted(members[reader][g]))
+                    groups[reader][g] = _merged(self.groups[reader].get(g, ()), iris, members[reader][g])
                 else:
                     members[reader].pop(g)
                     groups[reader].pop(g, None)
         return Grouped(Admission(admitted, quarantined), groups, reports, {r: frozenset(k) for r, k in dirty.items()}, members)
+
+
+def _merged(group: tuple[Observation, ...], iris: set[str], members: Mapping[str, Observation]) -> tuple[Observation, ...]:
+    """``group`` (sorted by IRI) with the observations of ``iris`` taken out and those of them in ``members`` put
+    back in order: a report costs a copy and a binary search, not a sort of its group."""
+    items = [o for o in group if o.iri not in iris] if _holds_any(group, iris) else list(group)
+    for iri in sorted(iris):
+        if iri in members:
+            bisect.insort(items, members[iri], key=_IRI)
+    return tuple(items)
+
+
+def _holds_any(group: tuple[Observation, ...], iris: set[str]) -> bool:
+    """Whether the sorted ``group`` holds an observation of one of ``iris`` (a binary search each)."""
+    for iri in iris:
+        k = bisect.bisect_left(group, iri, key=_IRI)
+        if k < len(group) and group[k].iri == iri:
+            return True
+    return False
+
+
+_IRI = operator.attrgetter("iri")

@@ -76,17 +76,22 @@ def summary_lines(key: tuple[str, tuple[str, str]], obs: Sequence[Observation], 
     if x not in extractor_iris or cond not in value_iris or not obs:
         return ()
     s = "<" + str(NFEX["evidence_" + hashlib.sha1(f"{x}|{cond[0]}|{cond[1]}".encode()).hexdigest()[:16]]) + ">"
+    failed, sources, ates, rates = 0, set(), [], []  # one pass: a group of a large graph holds thousands of windows
+    for o in obs:
+        failed += o.failed
+        sources.add(o.reporter or o.run or "unattributed")  # ``Observation.source``
+        if o.ate is not None:
+            ates.append(o.ate)
+        if o.lost is not None and o.frames:
+            rates.append(o.lost / o.frames)
     facts: dict[str, str] = {
         "ofExtractor": f"<{extractor_iris[x]}>", "underCondition": f"<{value_iris[cond]}>",
-        "windows": _lit(len(obs)), "failedWindows": _lit(sum(o.failed for o in obs)),
-        "sources": _lit(len({o.source for o in obs})),
+        "windows": _lit(len(obs)), "failedWindows": _lit(failed), "sources": _lit(len(sources)),
     }
-    ates = [o.ate for o in obs if o.ate is not None]
     facts["ateWindows"] = _lit(len(ates))
     if ates:
         agg = robust(ates)
         facts["medianAte"], facts["ateOutliers"] = _lit(agg.value), _lit(agg.outliers)
-    rates = [o.lost / o.frames for o in obs if o.lost is not None and o.frames]
     facts["lossWindows"] = _lit(len(rates))
     if rates:
         facts["medianLossRate"] = _lit(robust(rates).value)
