@@ -44,8 +44,9 @@ import pyoxigraph as ox
 from rdflib.term import Literal, Node, URIRef
 
 from ..kg.backends import EmbeddedBackend
+from ..kg.changes import ChangeSet
 from ..kg.claims import META
-from ..kg.footprint import Delta
+from ..kg.footprint import Delta, Reach
 from ..kg.history import HEAD, ChangeText
 from ..kg.terms import py
 from ..namespaces import NFEX
@@ -55,7 +56,6 @@ from .observations import Observation
 from .trust import Admission
 
 if TYPE_CHECKING:
-    from ..kg.changes import ChangeSet
     from ..kg.store import KnowledgeGraph
 
 _XSD = "http://www.w3.org/2001/XMLSchema#"
@@ -111,12 +111,13 @@ class EvidenceView:
     summary: frozenset[str]
     incremental: bool = False  # made from an earlier view (else from a dump of the stored graph)
     delta: Delta | None = None  # the triples by which the advance changed the view (kg/footprint.py); None: unknown
+    reach: Reach | None = None  # the stored triples it holds: those the rules can read (kg/footprint.py); None: all
 
     def detached(self) -> EvidenceView:
         """This view without its store: what the table kept on disk holds (rules/persisted.py). Advanced, it says what
         changed (``delta``) without a store to change, so compiles whose change no rule reads (a report waiting for
         corroboration) need no copy of the graph; the first compile that must run a rule makes a fresh view."""
-        return EvidenceView(self.version, None, self.quarantined, self.summary)
+        return EvidenceView(self.version, None, self.quarantined, self.summary, reach=self.reach)
 
     def advance(self, kg: KnowledgeGraph, admission: Admission, summary: frozenset[str],
                 diff: Diff | None = None, head: int | None = None) -> EvidenceView:
@@ -124,23 +125,25 @@ class EvidenceView:
         where it cannot be. ``diff``: how to read the change (default ``kg.diff``; a compile shares one with the
         observation index)."""
         head = kg.version if head is None else head
+        reach = self.reach
         if self.version < 0:
-            return evidence_view(kg, admission, summary)
+            return evidence_view(kg, admission, summary, reach)
         try:
             change = (diff or kg.diff)(self.version, head)
         except Exception as e:  # a pruned or unreadable history
             log.info("evidence view: no diff from version %d (%s); a fresh view", self.version, e)
-            return evidence_view(kg, admission, summary)
+            return evidence_view(kg, admission, summary, reach)
         if len(change.added) + len(change.removed) > MAX_CHANGE or any(
             not isinstance(x, URIRef | Literal) for t in (*change.added, *change.removed) for x in t
         ):
-            return evidence_view(kg, admission, summary)
+            return evidence_view(kg, admission, summary, reach)
         quarantined = frozenset(admission.quarantined)
         if self.backend is None:
             delta = _delta(kg, change, self.quarantined, quarantined, self.summary, summary)
-            return EvidenceView(head, None, quarantined, summary, incremental=True, delta=delta)
+            return EvidenceView(head, None, quarantined, summary, incremental=True, delta=delta, reach=reach)
         store: ox.Store = self.backend._store
-        text = ChangeText.of(change)
+        text = ChangeText.of(change if reach is None else ChangeSet(added=frozenset(t for t in change.added if reach.holds(t)),
+                                                                  removed=frozenset(t for t in change.removed if reach.holds(t))))
         _delete_data(store, sorted(self.summary - summary))
         _delete_data(store, text.removed)
         _insert_data(store, text.added)
@@ -150,12 +153,13 @@ class EvidenceView:
         for i in range(0, len(readmitted), _BATCH):
             dump = io.BytesIO()
             values = " ".join(f"<{m}>" for m in readmitted[i : i + _BATCH])
-            kg.backend.query_to(f"CONSTRUCT {{ ?m ?p ?o }} WHERE {{ VALUES ?m {{ {values} }} ?m ?p ?o }}", "application/n-triples", dump)
+            within = "?s ?p ?o" if reach is None else reach.pattern()
+            kg.backend.query_to(f"CONSTRUCT {{ ?s ?p ?o }} WHERE {{ VALUES ?s {{ {values} }} {within} }}", "application/n-triples", dump)
             store.load(dump.getvalue(), format=ox.RdfFormat.N_TRIPLES)
             version = _settled(kg, head)  # read from the store: pinned to ``head`` only if no commit landed since
         _insert_data(store, sorted(summary - self.summary))
         delta = _delta(kg, change, self.quarantined, quarantined, self.summary, summary)
-        return EvidenceView(version, self.backend, quarantined, summary, incremental=True, delta=delta)
+        return EvidenceView(version, self.backend, quarantined, summary, incremental=True, delta=delta, reach=reach)
 
     def holds(self, kg: KnowledgeGraph, triples: Set[tuple[URIRef, URIRef, URIRef]]) -> set[tuple[URIRef, URIRef, URIRef]] | None:
         """Which of ``triples`` (IRIs only) this view holds, for kg/footprint.py ``change_reads``: asked of its store,
@@ -225,15 +229,17 @@ def _delete_subjects(store: ox.Store, iris: Iterable[str]) -> None:
         store.update(f"DELETE {{ ?m ?p ?o }} WHERE {{ VALUES ?m {{ {values} }} ?m ?p ?o }}")
 
 
-def evidence_view(kg: KnowledgeGraph, admission: Admission, summary: frozenset[str]) -> EvidenceView:
-    """A fresh view (module docstring): the stored graph dumped and loaded, less the quarantined, plus the summaries.
-    The dump carries the version it read (one query reads one state of the store, and a commit writes its data
-    and the head in one operation), so the view knows its version even while commits land."""
+def evidence_view(kg: KnowledgeGraph, admission: Admission, summary: frozenset[str], reach: Reach | None = None) -> EvidenceView:
+    """A fresh view (module docstring): the stored graph dumped and loaded, less the quarantined, plus the summaries;
+    ``reach``: only the stored triples the rules can read (kg/footprint.py ``Reach``: at 3M statements about one in
+    ten), None: all of them. The dump carries the version it read (one query reads one state of the store, and a
+    commit writes its data and the head in one operation), so the view knows its version even while commits land."""
     view = EmbeddedBackend(None)
     store: ox.Store = view._store
-    if not (isinstance(kg.backend, EmbeddedBackend) and _load_through_file(kg.backend, store)):
+    query = _versioned_dump(reach)
+    if not (isinstance(kg.backend, EmbeddedBackend) and _load_through_file(kg.backend, store, query)):
         dump = io.BytesIO()
-        kg.backend.query_to(_VERSIONED_DUMP, "application/n-triples", dump)
+        kg.backend.query_to(query, "application/n-triples", dump)
         store.load(dump.getvalue(), format=ox.RdfFormat.N_TRIPLES)
     mark = ox.NamedNode(_MARK)
     found = [int(q.object.value) for q in store.quads_for_pattern(mark, mark, None) if isinstance(q.object, ox.Literal)]
@@ -242,16 +248,20 @@ def evidence_view(kg: KnowledgeGraph, admission: Admission, summary: frozenset[s
     quarantined = frozenset(admission.quarantined)
     _delete_subjects(store, quarantined)
     store.load("\n".join(sorted(summary)).encode() + b"\n", format=ox.RdfFormat.N_TRIPLES)
-    return EvidenceView(version, view, quarantined, summary)
+    return EvidenceView(version, view, quarantined, summary, reach=reach)
 
 
 _MARK = "urn:nfex:view-version"
-_VERSIONED_DUMP = f"""CONSTRUCT {{ ?s ?p ?o . <{_MARK}> <{_MARK}> ?v }} WHERE {{
-    {{ ?s ?p ?o }} UNION {{ GRAPH <{META}> {{ <{HEAD}> <{NFEX.versionNumber}> ?v }} }}
+
+
+def _versioned_dump(reach: Reach | None) -> str:
+    within = "{ ?s ?p ?o }" if reach is None else reach.pattern()
+    return f"""CONSTRUCT {{ ?s ?p ?o . <{_MARK}> <{_MARK}> ?v }} WHERE {{
+    {within} UNION {{ GRAPH <{META}> {{ <{HEAD}> <{NFEX.versionNumber}> ?v }} }}
 }}"""
 
 
-def _load_through_file(backend: EmbeddedBackend, store: ox.Store) -> bool:
+def _load_through_file(backend: EmbeddedBackend, store: ox.Store, query: str) -> bool:
     """The stored graph dumped into ``store`` through a temporary file, which Oxigraph writes and reads without the
     interpreter lock (into a Python buffer, the dump took the lock for every chunk, against the requests being
     served: at 3M statements it takes ~20 s). False, with ``store`` left empty, where no such file can be written
@@ -259,7 +269,7 @@ def _load_through_file(backend: EmbeddedBackend, store: ox.Store) -> bool:
     try:
         with tempfile.TemporaryDirectory(prefix="nfex-view-") as folder:
             path = str(Path(folder) / "dump.nt")
-            backend.construct_to_file(_VERSIONED_DUMP, path)
+            backend.construct_to_file(query, path)
             store.load(path=path, format=ox.RdfFormat.N_TRIPLES)
         return True
     except OSError as e:

@@ -15,7 +15,10 @@ graph, so a changed triple matters to the BGP only where its subject has the sta
 triple, before it for a removed one (``change_reads``). The answer of a query is a function of its BGPs'
 solutions (SPARQL 1.1 §18.5: the graph is read at BGPs and property paths only), so a change that alters no
 BGP's solutions leaves it as it was. Only a pattern's first step is anchored to its subject: the later steps of
-``p1/p2``, an inverse or repeated path, and a constant subject are not (any triple of their predicate matters).
+``p1/p2``, an inverse or repeated path are not (any triple of their predicate matters). A constant subject or
+object narrows a pattern to the triples that have it. ``Reach`` is the union of a query set's patterns: the
+triples they can read at all. A path that may be of length zero (``p*``, ``p?``) between two variables matches
+every node of the graph to itself, so a query with one has no footprint.
 """
 from __future__ import annotations
 
@@ -40,12 +43,51 @@ _OPAQUE = {"TriplesBlock", "ServiceGraphPattern", "Graph"}  # patterns not in al
 
 @dataclass(frozen=True)
 class Anchor:
-    """A triple pattern's reach: triples of ``predicate`` (and ``object``, where constant), which matter only where
-    their subject has every (predicate, object) of ``star`` (empty: any subject)."""
+    """A triple pattern's reach: triples of ``predicate`` (and ``object``, ``subject``, where constant), which matter
+    only where their subject has every (predicate, object) of ``star`` (empty: any subject)."""
 
     predicate: URIRef
     object: URIRef | None
     star: frozenset[tuple[URIRef, URIRef]]
+    subject: URIRef | None = None
+
+    def matches(self, t: tuple[Node, Node, Node]) -> bool:
+        return t[1] == self.predicate and (self.object is None or t[2] == self.object) and (self.subject is None or t[0] == self.subject)
+
+
+@dataclass(frozen=True)
+class Reach:
+    """The triples a set of queries can read — every triple some pattern of theirs can match (their anchors, stars
+    aside) — so that a graph holding just these answers each query as the whole graph does: the rules' evidence
+    view copies only these (evidence/view.py)."""
+
+    predicates: frozenset[URIRef]  # any subject and object
+    objects: frozenset[tuple[URIRef, URIRef]]  # (predicate, object)
+    subjects: frozenset[tuple[URIRef, URIRef]]  # (subject, predicate)
+
+    @classmethod
+    def of(cls, anchors: Iterable[Anchor]) -> Reach:
+        found = list(anchors)
+        predicates = frozenset(a.predicate for a in found if a.object is None and a.subject is None)
+        subjects = frozenset((a.subject, a.predicate) for a in found if a.subject is not None and a.predicate not in predicates)
+        objects = frozenset((a.predicate, a.object) for a in found
+                            if a.object is not None and a.subject is None and a.predicate not in predicates)
+        return cls(predicates, objects, subjects)
+
+    def holds(self, t: tuple[Node, Node, Node]) -> bool:
+        s, p, o = t
+        return p in self.predicates or (p, o) in self.objects or (s, p) in self.subjects
+
+    def pattern(self) -> str:
+        """A SPARQL group pattern binding ?s ?p ?o to the triples in reach."""
+        parts = []
+        if self.predicates:
+            parts.append(f"{{ VALUES ?p {{ {' '.join(f'<{p}>' for p in sorted(self.predicates))} }} ?s ?p ?o }}")
+        if self.objects:
+            parts.append(f"{{ VALUES (?p ?o) {{ {' '.join(f'(<{p}> <{o}>)' for p, o in sorted(self.objects))} }} ?s ?p ?o }}")
+        if self.subjects:
+            parts.append(f"{{ VALUES (?s ?p) {{ {' '.join(f'(<{s}> <{p}>)' for s, p in sorted(self.subjects))} }} ?s ?p ?o }}")
+        return " UNION ".join(parts) if parts else "{ FILTER (false) }"
 
 
 @dataclass(frozen=True)
@@ -69,18 +111,18 @@ def _analysed(query: str) -> tuple[Footprint, tuple[Anchor, ...]] | None:
     anchors: set[Anchor] = set()
     opaque = False
 
-    def predicates(path: object, star: frozenset[tuple[URIRef, URIRef]], obj: URIRef | None = None) -> bool:
+    def predicates(path: object, star: frozenset[tuple[URIRef, URIRef]], obj: URIRef | None = None, subj: URIRef | None = None) -> bool:
         """Note ``path``'s predicates; ``star``: what its first step's subject must have (empty: nothing known);
-        ``obj``: the pattern's constant object, for a plain predicate."""
+        ``obj``: the pattern's constant object, for a plain predicate; ``subj``: its constant subject, for a first step."""
         if isinstance(path, URIRef):
             found.add((str(path), str(obj) if obj is not None and path == RDF.type else None))
-            anchors.add(Anchor(path, obj, star))
+            anchors.add(Anchor(path, obj, star, subj))
             return True
         none: frozenset[tuple[URIRef, URIRef]] = frozenset()
         if isinstance(path, SequencePath):
-            return predicates(path.args[0], star) and all(predicates(a, none) for a in path.args[1:])
+            return predicates(path.args[0], star, None, subj) and all(predicates(a, none) for a in path.args[1:])
         if isinstance(path, AlternativePath):
-            return all(predicates(a, star) for a in path.args)
+            return all(predicates(a, star, None, subj) for a in path.args)
         if isinstance(path, InvPath):
             return predicates(path.arg, none)
         if isinstance(path, MulPath):
@@ -106,12 +148,29 @@ def _analysed(query: str) -> tuple[Footprint, tuple[Anchor, ...]] | None:
                 if isinstance(s, Variable | BNode) and isinstance(p, URIRef) and isinstance(o, URIRef):
                     stars.setdefault(s, set()).add((p, o))
             for s, p, o in node.triples:
-                if not predicates(p, frozenset(stars.get(s, ())), o if isinstance(o, URIRef) else None):
+                if not predicates(p, frozenset(stars.get(s, ())), o if isinstance(o, URIRef) else None,
+                                  s if isinstance(s, URIRef) else None):
+                    opaque = True
+                # a path that may be of length zero between two variables matches every node of the graph to itself
+                if _nullable(p) and isinstance(s, Variable | BNode) and isinstance(o, Variable | BNode):
                     opaque = True
         return None
 
     traverse(algebra, visitPre=visit)
     return None if opaque else (frozenset(found), tuple(sorted(anchors, key=repr)))
+
+
+def _nullable(path: object) -> bool:
+    """Whether ``path`` can be of length zero (``p*``, ``p?``, a sequence of such)."""
+    if isinstance(path, MulPath):
+        return path.zero or _nullable(path.path)
+    if isinstance(path, SequencePath):
+        return all(_nullable(a) for a in path.args)
+    if isinstance(path, AlternativePath):
+        return any(_nullable(a) for a in path.args)
+    if isinstance(path, InvPath):
+        return _nullable(path.arg)
+    return False
 
 
 def footprint(query: str) -> Footprint | None:
@@ -145,7 +204,7 @@ def change_reads(anchors: Iterable[Anchor], delta: Delta, holds: Holds) -> bool:
     for after, triples in ((True, delta.added), (False, delta.removed)):
         for s, p, o in triples:
             for a in by_predicate.get(p, ()):  # type: ignore[call-overload]
-                if a.object is not None and o != a.object:
+                if not a.matches((s, p, o)):
                     continue
                 if not a.star:
                     return True

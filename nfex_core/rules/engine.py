@@ -44,7 +44,7 @@ from ..evidence.index import Diff, ObservationIndex
 from ..evidence.view import EvidenceView, evidence_view, summary_lines
 from ..kg.backends import EmbeddedBackend
 from ..kg.changes import evidence_only
-from ..kg.footprint import anchors, change_reads, reads
+from ..kg.footprint import Anchor, Reach, anchors, change_reads, reads
 from ..kg.vocab import ExtractorSpec, Value
 from . import pruning
 from .persisted import CompiledCache
@@ -264,11 +264,14 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     lines = _per_group(grouped.groups["summary"], dirty.get("summary"), previous.summary_lines if alike and previous else None,
                        lambda k, obs: summary_lines(k, obs, extractor_iris, setup.value_iris))
     summary = frozenset(line for group in lines.values() for line in group)
+    reach = _reach(setup)  # what the rules can read: all the view must hold of the stored graph
     carried = previous.take_view() if previous is not None and setup.rules else None
+    if carried is not None and carried.reach != reach:
+        carried = None
     made: EvidenceView | None = None
     if setup.rules:
         made = carried.advance(kg, admission, summary, diff, version) if carried is not None \
-            else evidence_view(kg, admission, summary)
+            else evidence_view(kg, admission, summary, reach)
     errors: list[str] = []
     ruled: dict[int, list[tuple[str, Citation]]] = {}
     same = previous is not None and previous.setup is setup
@@ -291,7 +294,7 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     due = [k for k, (rule, query) in enumerate(zip(setup.rules, setup.queries, strict=True)) if not isinstance(query, Exception)
            and ((rule, query) not in earlier or changed(k))]
     if made is not None and made.backend is None and due:  # a kept table's detached view (view.py): a rule must run now
-        made = evidence_view(kg, admission, summary)
+        made = evidence_view(kg, admission, summary, reach)
         earlier = {}
         due = [k for k, query in enumerate(setup.queries) if not isinstance(query, Exception)]
     # ``due`` is empty without rules, and with rules there is a view (``made``) with its store
@@ -388,6 +391,18 @@ def _evaluate_rules(view: EmbeddedBackend, rules: Sequence[tuple[pruning.SparqlR
                                                                   thread_name_prefix="nfex-rule")
         pool = _RULE_THREADS
     return list(pool.map(lambda rq: one(*rq), rules))
+
+
+def _reach(setup: Setup) -> Reach | None:
+    """The stored triples the SPARQL rules can read (kg/footprint.py ``Reach``); None: any (a rule whose patterns
+    cannot be told, or that cannot be parsed)."""
+    found: list[Anchor] = []
+    for rule in setup.rules:
+        stars = anchors(rule.query)
+        if stars is None:
+            return None
+        found.extend(stars)
+    return Reach.of(found)
 
 
 def _extractor_names(setup: Setup) -> dict[str, str]:

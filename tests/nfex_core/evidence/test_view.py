@@ -17,12 +17,21 @@ from nfex_core.evidence.index import ObservationIndex
 from nfex_core.evidence.view import EvidenceView, evidence_view, summary_lines
 from nfex_core.feedback import Feedback, ReportWriter
 from nfex_core.kg import KnowledgeGraph
+from nfex_core.kg.footprint import Reach, anchors
+from nfex_core.rules import pruning
 from nfex_core.rules.engine import compile_table
 
 from .test_index import OPS, PREFIXES, _apply
 
 
-def _view(kg: KnowledgeGraph, previous: EvidenceView | None = None) -> EvidenceView:
+def _reach(kg: KnowledgeGraph) -> Reach:
+    """What the graph's SPARQL rules can read (kg/footprint.py): the view a compile makes holds only these."""
+    found = [anchors(rule.query) for rule in pruning.load_rules(kg)]
+    assert all(a is not None for a in found)
+    return Reach.of(a for stars in found for a in stars)  # type: ignore[union-attr]
+
+
+def _view(kg: KnowledgeGraph, previous: EvidenceView | None = None, reach: Reach | None = None) -> EvidenceView:
     vocab = kg.vocabulary()
     observations = ObservationIndex.read(kg).all()
     admission = admit(observations, TrustPolicy.load(kg))
@@ -30,8 +39,7 @@ def _view(kg: KnowledgeGraph, previous: EvidenceView | None = None) -> EvidenceV
     extractors = {x: str(e.iri) for x, e in vocab.extractors.items()}
     groups = Grouped.of(observations, TrustPolicy.load(kg)).groups["summary"]
     summary = frozenset(line for key, obs in groups.items() for line in summary_lines(key, obs, extractors, values))  # type: ignore[arg-type]
-    args = (kg, admission, summary)
-    return previous.advance(*args) if previous is not None else evidence_view(*args)
+    return previous.advance(kg, admission, summary) if previous is not None else evidence_view(kg, admission, summary, reach)
 
 
 def _triples(view: EvidenceView) -> set[bytes]:
@@ -51,6 +59,8 @@ def _trust(kg: KnowledgeGraph, rng: random.Random) -> None:
 def test_an_advanced_view_equals_a_fresh_view_after_random_changes(shipped_kg: KnowledgeGraph, ops: list[str], seed: int) -> None:
     rng = random.Random(seed)
     before = _view(shipped_kg)
+    reach = _reach(shipped_kg)
+    before_reach = _view(shipped_kg, reach=reach)  # what a compile makes: the triples its rules can read
     detached = before.detached()  # as a table kept on disk holds it (rules/persisted.py)
     quarantined = before.quarantined
     writer = ReportWriter(shipped_kg, max_items=1)
@@ -65,6 +75,8 @@ def test_an_advanced_view_equals_a_fresh_view_after_random_changes(shipped_kg: K
     assert advanced.incremental and advanced.backend is before.backend
     assert advanced.quarantined == fresh.quarantined and advanced.summary == fresh.summary
     assert _triples(advanced) == _triples(fresh), f"quarantined before {len(quarantined)}, after {len(fresh.quarantined)}"
+    within = _view(shipped_kg, before_reach)
+    assert within.reach == reach and _triples(within) == _triples(_view(shipped_kg, reach=reach)) < _triples(fresh)
     # without its store, the view says the same of what changed: the rules due are the same
     moved = _view(shipped_kg, detached)
     assert moved.backend is None and moved.version == advanced.version

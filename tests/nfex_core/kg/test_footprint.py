@@ -1,5 +1,5 @@
 """Stars (kg/footprint.py ``anchors``, ``change_reads``): a change that misses every pattern's star leaves a query's
-answer as it was.
+answer as it was; and the triples in a query's reach (``Reach``) answer it as the whole graph does.
 
 The property test draws a small graph, a change and a query from a handful of shapes (stars, paths, OPTIONAL,
 subqueries with COUNT, MINUS, constant subjects), and checks with Oxigraph: where ``change_reads`` says no, the
@@ -13,7 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from rdflib import RDF, URIRef
 
-from nfex_core.kg.footprint import Anchor, Delta, anchors, change_reads
+from nfex_core.kg.footprint import Anchor, Delta, Reach, anchors, change_reads
 
 E = "http://example.org/"
 P = f"PREFIX : <{E}> "
@@ -26,7 +26,8 @@ QUERIES = [
     "OPTIONAL { ?m :p ?x } } GROUP BY ?x",
     "SELECT ?x ?y WHERE { ?x :p :A . ?y ^:q ?x }",
     "SELECT ?x WHERE { ?x a :B . MINUS { ?x :r :A } }",
-    "SELECT ?y WHERE { :s0 :p ?y . ?y :q* ?z }",
+    "SELECT ?y ?z WHERE { :s0 :p ?y . :s1 :q*/:r ?z }",
+    "SELECT ?x ?y WHERE { :s0 :p ?y ; :r ?y . :s1 :q ?x }",
     "SELECT ?x WHERE { ?x :p :A , ?o . ?o a :B }",
     "SELECT ?x WHERE { [] :p :B ; :q ?x }",
 ]
@@ -62,9 +63,28 @@ def test_a_change_that_misses_every_star_keeps_the_answer(graph: set, add: set, 
     after = (graph - removed) | added
     found = anchors(P + query)
     assert found is not None
+    reach = Reach.of(found)  # the triples it can read answer it as the whole graph does
+    assert _answer(_store({t for t in graph if reach.holds(t)}), query) == _answer(_store(graph), query)
     if change_reads(found, Delta(frozenset(added), frozenset(removed)), _holds(after, [])):
         return
     assert _answer(_store(graph), query) == _answer(_store(after), query)
+
+
+def test_a_path_of_length_zero_between_variables_reads_every_node() -> None:
+    """``?x :q* ?y`` pairs every node of the graph with itself, so any triple can change its answer."""
+    assert anchors(P + "SELECT ?x ?y WHERE { ?x :q* ?y }") is None
+    assert anchors(P + "SELECT ?x WHERE { ?x :q?/:r? ?x }") is None
+    assert anchors(P + "SELECT ?y WHERE { :s0 :q* ?y }") is not None  # from a constant: (s0, s0) whatever the graph
+
+
+def test_a_constant_subject_narrows_a_pattern_to_its_triples() -> None:
+    found = anchors(P + "SELECT ?n WHERE { :s0 :p ?n . ?x :q ?n }")
+    assert found is not None
+    s0, s1, p = URIRef(E + "s0"), URIRef(E + "s1"), URIRef(E + "p")
+    assert change_reads(found, Delta(frozenset({(s0, p, URIRef(E + "A"))}), frozenset()), _holds(set(), []))
+    assert not change_reads(found, Delta(frozenset({(s1, p, URIRef(E + "A"))}), frozenset()), _holds(set(), []))
+    reach = Reach.of(found)
+    assert reach.holds((s0, p, s1)) and not reach.holds((s1, p, s0)) and reach.holds((s1, URIRef(E + "q"), s0))
 
 
 def test_the_expert_rules_count_reads_only_a_measurement_under_car_and_fast() -> None:
