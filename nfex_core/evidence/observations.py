@@ -9,25 +9,42 @@ the editor who accepted it). The rule engine, the cost model and the dynamic bas
 from __future__ import annotations
 
 from collections.abc import Collection
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from ..kg.terms import py
+from ..kg.backends import EmbeddedBackend
+from ..kg.history import prefix_block
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
 
-OBSERVATIONS = """SELECT ?m ?xname ?cfg ?dim ?val ?ate ?ms ?w ?h ?failed ?lost ?frames ?seq ?seqLabel ?run ?reporter ?accepted WHERE {
-    ?m a nfex:Measurement ; sosa:usedProcedure ?cfg .
-    ?cfg nfex:ofExtractor/nfex:token ?xname .
-    OPTIONAL { ?m nfex:underCondition ?c . ?c nfex:token ?val ; nfex:inDimension/nfex:token ?dim . }
-    OPTIONAL { ?m nfex:ateRmse ?ate } OPTIONAL { ?m nfex:extractionMs ?ms }
-    OPTIONAL { ?m nfex:frameWidth ?w ; nfex:frameHeight ?h }
-    OPTIONAL { ?m nfex:trackingFailed ?failed } OPTIONAL { ?m nfex:trackingLost ?lost } OPTIONAL { ?m nfex:frameCount ?frames }
-    OPTIONAL { ?m nfex:sequence ?seq OPTIONAL { ?seq rdfs:label ?seqLabel } }
-    OPTIONAL { ?m prov:wasGeneratedBy ?run } OPTIONAL { ?m prov:wasAttributedTo ?reporter }
-    OPTIONAL { ?m nfex:acceptedBy ?accepted }
-}"""
+# One query, so that it reads one state of the store, in branches that each scan one predicate (joined here):
+# Oxigraph evaluates an OPTIONAL group on its own and joins afterwards, so the form with an OPTIONAL per attribute
+# took 20 s at 3M statements where these branches take a few. ?k names the branch; ?m is the Measurement, except
+# in the branches about configurations (``cfg``: ?m a configuration, ?a its extractor's token) and condition
+# values (``value``: ?m a value, ?a its dimension's token, ?b its own). Where a Measurement has two values of an
+# attribute, the first seen is kept.
+_BRANCHES = {
+    "type": "?m a nfex:Measurement .", "proc": "?m sosa:usedProcedure ?a .", "cond": "?m nfex:underCondition ?a .",
+    "ate": "?m nfex:ateRmse ?a .", "ms": "?m nfex:extractionMs ?a .",
+    "size": "?m nfex:frameWidth ?a ; nfex:frameHeight ?b .",
+    "failed": "?m nfex:trackingFailed ?a .", "lost": "?m nfex:trackingLost ?a .", "frames": "?m nfex:frameCount ?a .",
+    "seq": "?m nfex:sequence ?a OPTIONAL { ?a rdfs:label ?b }",
+    "run": "?m prov:wasGeneratedBy ?a .", "reporter": "?m prov:wasAttributedTo ?a .", "accepted": "?m nfex:acceptedBy ?a .",
+}
+_SHARED = {"cfg": "?m nfex:ofExtractor/nfex:token ?a .", "value": "?m nfex:token ?b ; nfex:inDimension/nfex:token ?a ."}
+
+
+def observation_query(only: Collection[str] | None = None) -> str:
+    """The query ``read_observations`` sends; ``only``: the Measurements it is restricted to (a VALUES block in
+    each of their branches, so each is a lookup, not a scan)."""
+    values = "" if only is None else f"VALUES ?m {{ {' '.join(f'<{i}>' for i in sorted(only))} }} "
+    branches = [f'{{ {values}{pattern} BIND ("{k}" AS ?k) }}' for k, pattern in _BRANCHES.items()]
+    branches += [f'{{ {pattern} BIND ("{k}" AS ?k) }}' for k, pattern in _SHARED.items()]
+    return "SELECT ?m ?k ?a ?b WHERE {\n" + "\n  UNION ".join(branches) + "\n}"
+
+
+OBSERVATIONS = observation_query()
 
 
 @dataclass(frozen=True)
@@ -63,31 +80,86 @@ class Observation:
 
 
 def read_observations(kg: KnowledgeGraph, only: Collection[str] | None = None) -> list[Observation]:
-    """Every Measurement of the graph (one query; a row per condition value, folded here); ``only``: just
-    these IRIs (those that are Measurements), for evidence/index.py's incremental reading."""
-    first: dict[str, Observation] = {}
-    conditions: dict[str, set[tuple[str, str]]] = {}
+    """Every Measurement of the graph (one query: a row per attribute, folded here); ``only``: just these IRIs
+    (those that are Measurements), for evidence/index.py's incremental reading."""
     if only is not None and not only:
         return []
-    query = OBSERVATIONS if only is None else restricted(OBSERVATIONS, "m", only)
-    for r in kg.select(query).rows:
-        m = str(r["m"])
-        if m not in first:
-            first[m] = Observation(
-                iri=m, extractor=str(r["xname"]), configuration=str(r["cfg"]), conditions=frozenset(),
-                ate=float(py(r["ate"])) if "ate" in r else None,
-                extraction_ms=float(py(r["ms"])) if "ms" in r else None,
-                width=int(py(r["w"])) if "w" in r else None, height=int(py(r["h"])) if "h" in r else None,
-                failed=bool(py(r["failed"])) if "failed" in r else False,
-                lost=int(py(r["lost"])) if "lost" in r else None, frames=int(py(r["frames"])) if "frames" in r else None,
-                sequence=str(r["seq"]) if "seq" in r else None, sequence_label=str(r["seqLabel"]) if "seqLabel" in r else None,
-                run=str(r["run"]) if "run" in r else None, reporter=str(r["reporter"]) if "reporter" in r else None,
-                accepted_by=str(r["accepted"]) if "accepted" in r else None,
-            )
-            conditions[m] = set()
-        if "dim" in r:
-            conditions[m].add((str(r["dim"]), str(r["val"])))
-    return [replace(o, conditions=frozenset(conditions[m])) for m, o in first.items()]
+    query = observation_query(only)
+    rows: list[tuple[str, str, str | None, str | None]] = []
+    if isinstance(kg.backend, EmbeddedBackend):  # Oxigraph's terms, lexical forms read directly: no rdflib terms
+        for sol in kg.backend.solutions(prefix_block() + query):
+            a, b = sol["a"], sol["b"]
+            rows.append((sol["m"].value, sol["k"].value, a.value if a is not None else None, b.value if b is not None else None))
+    else:
+        for r in kg.select(query).rows:
+            rows.append((str(r["m"]), str(r["k"]), str(r["a"]) if "a" in r else None, str(r["b"]) if "b" in r else None))
+    measurements: dict[str, None] = {}  # in the order read
+    extractor: dict[str, str] = {}  # configuration → its extractor's token
+    tokens: dict[str, set[tuple[str, str]]] = {}  # condition value → (dimension, value) tokens
+    procedures: dict[str, list[str]] = {}
+    values: dict[str, dict[str, tuple[str | None, str | None]]] = {}
+    within: dict[str, list[str]] = {}  # Measurement → condition values
+    for m, k, a, b in rows:
+        if k == "type":
+            measurements[m] = None
+        elif k == "proc":
+            procedures.setdefault(m, []).append(a or "")
+        elif k == "cond":
+            within.setdefault(m, []).append(a or "")
+        elif k == "cfg":
+            extractor.setdefault(m, a or "")
+        elif k == "value":
+            tokens.setdefault(m, set()).add((a or "", b or ""))
+        else:
+            values.setdefault(m, {}).setdefault(k, (a, b))
+    base: dict[str, tuple[str, str]] = {}
+    for m in measurements:
+        cfg = next((c for c in procedures.get(m, ()) if c in extractor), None)
+        if cfg is not None:
+            base[m] = (cfg, extractor[cfg])
+    conditions = {m: {t for c in cs for t in tokens.get(c, ())} for m, cs in within.items()}
+    out = []
+    for m, (cfg, xname) in base.items():
+        v = values.get(m, {})
+
+        def lex(key: str, v: dict[str, tuple[str | None, str | None]] = v) -> str | None:
+            return v[key][0] if key in v else None
+
+        size = v.get("size")
+        seq = v.get("seq")
+        out.append(Observation(
+            iri=m, extractor=xname, configuration=cfg, conditions=frozenset(conditions.get(m, ())),
+            ate=_float(lex("ate")), extraction_ms=_float(lex("ms")),
+            width=_int(size[0]) if size else None, height=_int(size[1]) if size else None,
+            failed=_bool(lex("failed")), lost=_int(lex("lost")), frames=_int(lex("frames")),
+            sequence=seq[0] if seq else None, sequence_label=seq[1] if seq else None,
+            run=lex("run"), reporter=lex("reporter"), accepted_by=lex("accepted"),
+        ))
+    return out
+
+
+def _float(lex: str | None) -> float | None:
+    return float(lex) if lex is not None else None
+
+
+def _int(lex: str | None) -> int | None:
+    if lex is None:
+        return None
+    try:
+        return int(lex)
+    except ValueError:  # a decimal or double lexical form
+        return int(float(lex))
+
+
+def _bool(lex: str | None) -> bool:
+    if lex is None:
+        return False
+    if lex in ("true", "false"):
+        return lex == "true"
+    try:
+        return float(lex) != 0
+    except ValueError:
+        return bool(lex)
 
 
 def restricted(query: str, variable: str, iris: Collection[str]) -> str:
