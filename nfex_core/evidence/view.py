@@ -229,18 +229,28 @@ def _delete_subjects(store: ox.Store, iris: Iterable[str]) -> None:
         store.update(f"DELETE {{ ?m ?p ?o }} WHERE {{ VALUES ?m {{ {values} }} ?m ?p ?o }}")
 
 
-def evidence_view(kg: KnowledgeGraph, admission: Admission, summary: frozenset[str], reach: Reach | None = None) -> EvidenceView:
-    """A fresh view (module docstring): the stored graph dumped and loaded, less the quarantined, plus the summaries;
-    ``reach``: only the stored triples the rules can read (kg/footprint.py ``Reach``: at 3M statements about one in
-    ten), None: all of them. The dump carries the version it read (one query reads one state of the store, and a
-    commit writes its data and the head in one operation), so the view knows its version even while commits land."""
+def dump(kg: KnowledgeGraph, reach: Reach | None = None) -> EmbeddedBackend:
+    """The first step of a fresh view: the stored triples in ``reach`` (None: all) copied into an in-memory store,
+    with the version they were read at. It reads the store only, so a compile can have it made while it reads the
+    observations (rules/engine.py)."""
     view = EmbeddedBackend(None)
     store: ox.Store = view._store
     query = _versioned_dump(reach)
     if not (isinstance(kg.backend, EmbeddedBackend) and _load_through_file(kg.backend, store, query)):
-        dump = io.BytesIO()
-        kg.backend.query_to(query, "application/n-triples", dump)
-        store.load(dump.getvalue(), format=ox.RdfFormat.N_TRIPLES)
+        out = io.BytesIO()
+        kg.backend.query_to(query, "application/n-triples", out)
+        store.load(out.getvalue(), format=ox.RdfFormat.N_TRIPLES)
+    return view
+
+
+def evidence_view(kg: KnowledgeGraph, admission: Admission, summary: frozenset[str], reach: Reach | None = None,
+                  dumped: EmbeddedBackend | None = None) -> EvidenceView:
+    """A fresh view (module docstring): the stored graph dumped and loaded, less the quarantined, plus the summaries;
+    ``reach``: only the stored triples the rules can read (kg/footprint.py ``Reach``: at 3M statements about one in
+    ten), None: all of them; ``dumped``: ``dump(kg, reach)``, made beforehand. The dump carries the version it read (one query reads one state of the store, and a
+    commit writes its data and the head in one operation), so the view knows its version even while commits land."""
+    view = dumped if dumped is not None else dump(kg, reach)
+    store: ox.Store = view._store
     mark = ox.NamedNode(_MARK)
     found = [int(q.object.value) for q in store.quads_for_pattern(mark, mark, None) if isinstance(q.object, ox.Literal)]
     store.update(f"DELETE WHERE {{ <{_MARK}> <{_MARK}> ?v }}")

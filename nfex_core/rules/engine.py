@@ -41,7 +41,7 @@ from ..errors import NfexError
 from ..evidence import Admission, Aggregate, Observation, robust
 from ..evidence.groups import Grouped
 from ..evidence.index import Diff, ObservationIndex
-from ..evidence.view import EvidenceView, evidence_view, summary_lines
+from ..evidence.view import EvidenceView, dump, evidence_view, summary_lines
 from ..kg.backends import EmbeddedBackend
 from ..kg.changes import evidence_only
 from ..kg.footprint import Anchor, Reach, anchors, change_reads, reads
@@ -251,6 +251,10 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     absent = backend_citations(kg, kg.vocabulary().extractors)
     setup = _carried_setup(kg, previous, version, diff, absent) or Setup.read(kg, absent, previous.setup if previous is not None else None)
     vocab, dims = setup.vocab, setup.dimensions
+    reach = _reach(setup)  # what the rules can read: all the view must hold of the stored graph
+    # a fresh view's copy of the store is made while the observations are read (Oxigraph dumps without the lock)
+    copying = _pool().submit(dump, kg, reach) if setup.rules and (
+        previous is None or previous.view is None or previous.view.reach != reach) else None
     index = previous.index.advance(kg, diff, version) if previous is not None and previous.index is not None else ObservationIndex.read(kg)
     grouped = previous.grouped.advance(previous.index.observations, index.observations, index.changed, setup.policy) \
         if previous is not None and previous.grouped is not None and previous.index is not None and index.changed is not None \
@@ -264,14 +268,13 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     lines = _per_group(grouped.groups["summary"], dirty.get("summary"), previous.summary_lines if alike and previous else None,
                        lambda k, obs: summary_lines(k, obs, extractor_iris, setup.value_iris))
     summary = frozenset(line for group in lines.values() for line in group)
-    reach = _reach(setup)  # what the rules can read: all the view must hold of the stored graph
-    carried = previous.take_view() if previous is not None and setup.rules else None
+    carried = previous.take_view() if previous is not None and setup.rules and copying is None else None
     if carried is not None and carried.reach != reach:
         carried = None
     made: EvidenceView | None = None
     if setup.rules:
         made = carried.advance(kg, admission, summary, diff, version) if carried is not None \
-            else evidence_view(kg, admission, summary, reach)
+            else evidence_view(kg, admission, summary, reach, copying.result() if copying is not None else None)
     errors: list[str] = []
     ruled: dict[int, list[tuple[str, Citation]]] = {}
     same = previous is not None and previous.setup is setup
@@ -384,13 +387,17 @@ def _evaluate_rules(view: EmbeddedBackend, rules: Sequence[tuple[pruning.SparqlR
 
     if len(rules) < 2:
         return [one(r, q) for r, q in rules]
+    return list(_pool().map(lambda rq: one(*rq), rules))
+
+
+def _pool() -> concurrent.futures.ThreadPoolExecutor:
+    """The compile's helper threads: for work Oxigraph does without the interpreter lock."""
     global _RULE_THREADS
     with _RULE_THREADS_LOCK:
         if _RULE_THREADS is None:
             _RULE_THREADS = concurrent.futures.ThreadPoolExecutor(max_workers=max(2, min(4, os.cpu_count() or 1)),
                                                                   thread_name_prefix="nfex-rule")
-        pool = _RULE_THREADS
-    return list(pool.map(lambda rq: one(*rq), rules))
+        return _RULE_THREADS
 
 
 def _reach(setup: Setup) -> Reach | None:
