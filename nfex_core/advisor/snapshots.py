@@ -13,8 +13,8 @@ caller: there is nothing older to answer from), ``Snapshots`` works in one of tw
   is bounded: a selection answers from a version at most one compile time plus that pause (at most
   ``MAX_PAUSE_S``: a full compile of a large graph does not hold the next one back for as long) (plus the
   compile already running, when a commit lands mid-compile) behind the last commit made through this
-  process, plus ``poll_interval_s`` for commits other processes make to a shared remote store (the head is
-  read at most once per interval). Each selection says which version answered (``versions["graph"]``),
+  process, plus ``poll_interval_s`` and one read of the head for commits other processes make to a shared remote
+  store (the head is read at most once per interval, on a thread of its own: a selection never waits for it). Each selection says which version answered (``versions["graph"]``),
   the newest version known (``versions["graph_head"]``) and for how long a newer one has been waiting
   (``versions["stale_ms"]``, 0 when fresh).
 - **inline** (the library's default; the CLI, evaluations, notebooks): a selection after a commit waits
@@ -72,6 +72,7 @@ class Snapshots(Generic[S]):
         self._worker: threading.Thread | None = None
         self._wanted = False
         self._closed = False
+        self._polling = False  # a head read is under way (``_poll``)
 
     # ------------------------------------------------------------------ what is known
     @property
@@ -102,11 +103,13 @@ class Snapshots(Generic[S]):
         return head, (round((time.monotonic() - waiting[0]) * 1000, 1) if waiting else 0.0)
 
     def is_fresh(self) -> bool:
-        """Whether ``get()`` answers from memory at once: no store round trip (the head was read or told within
-        the poll interval) and no compile (background mode, or the snapshot is the head's)."""
+        """Whether ``get()`` answers from memory at once: in background mode whenever a snapshot exists (a head
+        read due is made on its own thread); inline, when the head was read or told within the poll interval and
+        the snapshot is the head's."""
         snap = self._snap
-        return (snap is not None and time.monotonic() - self._checked_at < self.poll_interval_s
-                and (self.background or not self._behind()))
+        if snap is not None and self.background:  # a head read due is made on its own thread (``get``)
+            return True
+        return snap is not None and time.monotonic() - self._checked_at < self.poll_interval_s and not self._behind()
 
     def _behind(self) -> bool:
         snap = self._snap
@@ -118,11 +121,32 @@ class Snapshots(Generic[S]):
         snap = self._snap
         if snap is None or wait:
             return self.sync()
-        if time.monotonic() - self._checked_at >= self.poll_interval_s:
-            self.learn(self._read_head())  # a remote store's head moves without telling this process
+        if time.monotonic() - self._checked_at >= self.poll_interval_s:  # a remote store's head moves without telling us
+            if self.background:
+                self._poll()  # on a thread of its own: a selection does not wait for a round trip to a busy store
+            else:
+                self.learn(self._read_head())
         if self._behind() and not self.background:
             return self.sync(self._head)
         return self._snap or snap
+
+    def _poll(self) -> None:
+        """Read the head on a thread of its own, one read at a time (background mode)."""
+        with self._state:
+            if self._polling or self._closed:
+                return
+            self._polling = True
+
+        def run() -> None:
+            try:
+                self.learn(self._read_head())
+            except Exception as e:  # the store is away: the snapshot keeps answering, the next selection asks again
+                log.warning("reading the store's head failed: %s", e)
+            finally:
+                with self._state:
+                    self._polling = False
+
+        threading.Thread(target=run, name="nfex-poll", daemon=True).start()
 
     def sync(self, version: int | None = None) -> S:
         """A snapshot of ``version`` (default: the store's head, read now) or newer; compiles it in the caller

@@ -64,6 +64,34 @@ def _held_compile() -> tuple[Store, Snapshots[Snap]]:
     return store, snaps
 
 
+def test_a_selection_does_not_wait_for_a_slow_read_of_a_remote_head() -> None:
+    """Background mode: the head of a shared store, moved by another process, is read on a thread of its own once
+    the poll interval is over; the selection that found it due answers at once, the next compile follows."""
+    store = Store()
+    reading = threading.Event()
+    release = threading.Event()
+
+    def slow_head() -> int:
+        reading.set()
+        assert release.wait(10)
+        return store.head
+
+    snaps: Snapshots[Snap] = Snapshots(store.build, slow_head, poll_interval_s=0.05, background=True)
+    snaps.sync(1)
+    store.head = 2  # another replica's commit: nobody tells this process
+    time.sleep(0.06)
+    t = time.monotonic()
+    assert snaps.is_fresh() and snaps.get().version == 1 and time.monotonic() - t < 0.5
+    assert reading.wait(5)
+    assert snaps.get().version == 1  # one read at a time: no second thread while the first waits
+    release.set()
+    deadline = time.monotonic() + 5
+    while snaps.get().version < 2 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert snaps.get().version == 2 and store.built == [1, 2]
+    snaps.close()
+
+
 def test_the_old_snapshot_answers_while_the_next_compiles_and_says_how_stale_it_is() -> None:
     store, snaps = _held_compile()  # the compile of version 2 runs, and is held
     time.sleep(0.02)
