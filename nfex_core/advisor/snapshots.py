@@ -73,6 +73,7 @@ class Snapshots(Generic[S]):
         self._wanted = False
         self._closed = False
         self._polling = False  # a head read is under way (``_poll``)
+        self._poller: threading.Thread | None = None
 
     # ------------------------------------------------------------------ what is known
     @property
@@ -140,13 +141,22 @@ class Snapshots(Generic[S]):
         def run() -> None:
             try:
                 self.learn(self._read_head())
-            except Exception as e:  # the store is away: the snapshot keeps answering, the next selection asks again
+            except Exception as e:  # the store is away: the snapshot keeps answering; asked again after an interval
                 log.warning("reading the store's head failed: %s", e)
+                with self._state:
+                    self._checked_at = time.monotonic()
             finally:
                 with self._state:
                     self._polling = False
 
-        threading.Thread(target=run, name="nfex-poll", daemon=True).start()
+        poller = threading.Thread(target=run, name="nfex-poll", daemon=True)
+        try:
+            poller.start()
+        except BaseException:
+            with self._state:
+                self._polling = False
+            raise
+        self._poller = poller
 
     def sync(self, version: int | None = None) -> S:
         """A snapshot of ``version`` (default: the store's head, read now) or newer; compiles it in the caller
@@ -225,5 +235,8 @@ class Snapshots(Generic[S]):
         was still running after ``timeout`` seconds."""
         with self._state:
             self._closed = True
+            poller = self._poller
         self._closing.set()
+        if poller is not None:  # a head read under way holds the store
+            poller.join(timeout)
         return self.wait_idle(timeout)

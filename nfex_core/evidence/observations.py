@@ -25,22 +25,27 @@ if TYPE_CHECKING:
 # values (``value``: ?m a value, ?a its dimension's token, ?b its own). Where a Measurement has two values of an
 # attribute, the first seen is kept.
 _BRANCHES = {
-    "type": "?m a nfex:Measurement .", "proc": "?m sosa:usedProcedure ?a .", "cond": "?m nfex:underCondition ?a .",
+    "type": "?m a nfex:Measurement .", "proc": "?m sosa:usedProcedure ?a . FILTER (!isLiteral(?a))",
+    "cond": "?m nfex:underCondition ?a . FILTER (!isLiteral(?a))",
     "ate": "?m nfex:ateRmse ?a .", "ms": "?m nfex:extractionMs ?a .",
     "size": "?m nfex:frameWidth ?a ; nfex:frameHeight ?b .",
     "failed": "?m nfex:trackingFailed ?a .", "lost": "?m nfex:trackingLost ?a .", "frames": "?m nfex:frameCount ?a .",
     "seq": "?m nfex:sequence ?a OPTIONAL { ?a rdfs:label ?b }",
     "run": "?m prov:wasGeneratedBy ?a .", "reporter": "?m prov:wasAttributedTo ?a .", "accepted": "?m nfex:acceptedBy ?a .",
 }
-_SHARED = {"cfg": "?m nfex:ofExtractor/nfex:token ?a .", "value": "?m nfex:token ?b ; nfex:inDimension/nfex:token ?a ."}
+_SHARED = {"cfg": ("sosa:usedProcedure", "?m nfex:ofExtractor/nfex:token ?a ."),
+           "value": ("nfex:underCondition", "?m nfex:token ?b ; nfex:inDimension/nfex:token ?a .")}
 
 
 def observation_query(only: Collection[str] | None = None) -> str:
     """The query ``read_observations`` sends; ``only``: the Measurements it is restricted to (a VALUES block in
-    each of their branches, so each is a lookup, not a scan)."""
-    values = "" if only is None else f"VALUES ?m {{ {' '.join(f'<{i}>' for i in sorted(only))} }} "
+    each of their branches, so each is a lookup, not a scan; the configurations and condition values are then
+    those of these Measurements)."""
+    iris = None if only is None else " ".join(f"<{i}>" for i in sorted(only))
+    values = "" if iris is None else f"VALUES ?m {{ {iris} }} "
     branches = [f'{{ {values}{pattern} BIND ("{k}" AS ?k) }}' for k, pattern in _BRANCHES.items()]
-    branches += [f'{{ {pattern} BIND ("{k}" AS ?k) }}' for k, pattern in _SHARED.items()]
+    branches += [f'{{ {"" if iris is None else f"VALUES ?of {{ {iris} }} ?of {link} ?m . "}{pattern} BIND ("{k}" AS ?k) }}'
+                 for k, (link, pattern) in _SHARED.items()]
     return "SELECT ?m ?k ?a ?b WHERE {\n" + "\n  UNION ".join(branches) + "\n}"
 
 
@@ -152,14 +157,17 @@ def _int(lex: str | None) -> int | None:
 
 
 def _bool(lex: str | None) -> bool:
+    """``nfex:trackingFailed``: absent, ``false``/``0`` (any case, as xsd:boolean reads them) or a zero number is
+    False; ``true``/``1``, another number or any other text is True."""
     if lex is None:
         return False
-    if lex in ("true", "false"):
-        return lex == "true"
+    word = lex.strip().lower()
+    if word in ("true", "1", "false", "0"):
+        return word in ("true", "1")
     try:
-        return float(lex) != 0
+        return float(word) != 0
     except ValueError:
-        return bool(lex)
+        return bool(word)
 
 
 def restricted(query: str, variable: str, iris: Collection[str]) -> str:

@@ -62,6 +62,7 @@ if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
 
 log = logging.getLogger("nfex.rules")
+MAX_MADE = 100_000  # entries of ``RuleTable.made``: contexts asked × extractors × measured configurations
 K = TypeVar("K", bound=Hashable)
 V = TypeVar("V")
 _TAKE = threading.Lock()  # RuleTable.take_view
@@ -113,7 +114,8 @@ class RuleTable:
         if hit is None and self.made_before is not None:
             hit = self.made_before.get(key)
         value: V = hit[1] if hit is not None and hit[0] is source else make()
-        self.made[key] = (source, value)
+        if len(self.made) < MAX_MADE:  # past it, what is made is not kept: memory stays bounded, answers the same
+            self.made[key] = (source, value)
         return value
 
     def key(self, context: Mapping[str, str | None]) -> ContextKey:
@@ -368,7 +370,8 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
                      configurations, setup.min_measurements, observed, admission, step_checks=dict(setup.step_checks),
                      index=index, view=made, setup=setup, hits=hits, ruled={i: tuple(r) for i, r in ruled.items()}, plain=plain,
                      grouped=grouped, summary_lines=lines, cost_groups=aggregates, measured_groups=measured,
-                     made_before=previous.made if previous is not None and previous.min_measurements == setup.min_measurements else None)
+                     made_before=previous.made if previous is not None and previous.min_measurements == setup.min_measurements
+                     and previous.dimensions == dims and alike else None)
 
 
 Found = dict[int, list[tuple[URIRef, str]]]  # pruning.evaluate's: per context index, the extractors pruned and why

@@ -71,7 +71,10 @@ def test_a_selection_does_not_wait_for_a_slow_read_of_a_remote_head() -> None:
     reading = threading.Event()
     release = threading.Event()
 
+    reads: list[float] = []
+
     def slow_head() -> int:
+        reads.append(time.monotonic())
         reading.set()
         assert release.wait(10)
         return store.head
@@ -83,12 +86,34 @@ def test_a_selection_does_not_wait_for_a_slow_read_of_a_remote_head() -> None:
     t = time.monotonic()
     assert snaps.is_fresh() and snaps.get().version == 1 and time.monotonic() - t < 0.5
     assert reading.wait(5)
-    assert snaps.get().version == 1  # one read at a time: no second thread while the first waits
+    time.sleep(0.06)  # the interval is over again while the first read waits
+    assert snaps.get().version == 1 and len(reads) == 1  # one read at a time: no second thread while the first waits
     release.set()
     deadline = time.monotonic() + 5
     while snaps.get().version < 2 and time.monotonic() < deadline:
         time.sleep(0.01)
     assert snaps.get().version == 2 and store.built == [1, 2]
+    snaps.close()
+
+
+def test_a_failed_read_of_the_head_waits_an_interval() -> None:
+    """The store away: the snapshot answers, and the next read is tried after the poll interval, not at once."""
+    store = Store()
+    reads: list[float] = []
+
+    def failing() -> int:
+        reads.append(time.monotonic())
+        if len(reads) > 1:
+            raise ConnectionError("the store is away")
+        return store.head
+
+    snaps: Snapshots[Snap] = Snapshots(store.build, failing, poll_interval_s=0.3, background=True)
+    snaps.sync()
+    time.sleep(0.31)
+    for _ in range(20):  # selections in quick succession
+        assert snaps.get().version == 1
+        time.sleep(0.005)
+    assert len(reads) == 2, reads
     snaps.close()
 
 

@@ -55,3 +55,10 @@ def test_the_reading_is_the_plain_querys(shipped_kg: KnowledgeGraph) -> None:
     assert {o.iri: o for o in read} == expected
     some = sorted(expected)[::50]
     assert {o.iri: o for o in read_observations(shipped_kg, some)} == {m: expected[m] for m in some}
+
+
+def test_a_failure_flag_reads_as_xsd_boolean_does() -> None:
+    from nfex_core.evidence.observations import _bool
+
+    assert [_bool(x) for x in (None, "false", "False", "0", " FALSE ", "0.0")] == [False] * 6
+    assert [_bool(x) for x in ("true", "TRUE", "1", "2", "yes")] == [True] * 5

@@ -141,3 +141,22 @@ def test_a_literal_with_a_line_break_is_carried(shipped_kg: KnowledgeGraph) -> N
     shipped_kg.update(PREFIXES + 'INSERT DATA { <urn:nfex:test:note> rdfs:comment """two\nlines""" }', author="pytest")
     advanced = _view(shipped_kg, before)
     assert advanced.incremental and _triples(advanced) == _triples(_view(shipped_kg))
+
+
+def test_the_rules_decide_on_their_reach_as_on_the_whole_graph(shipped_kg: KnowledgeGraph, bare_kg: KnowledgeGraph,
+                                                               monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    """The view copies only what the rules can read (kg/footprint.py ``Reach``): the shipped rules decide on it as
+    on a copy of the whole graph, with their measurements (rules silent or measured) and without (the expert
+    prior prunes)."""
+    from nfex_core.rules import engine
+
+    for kg in (shipped_kg, bare_kg):
+        within = compile_table(kg)
+        assert within.view is not None and within.view.reach is not None
+        with monkeypatch.context() as m:
+            m.setattr(engine, "_reach", lambda setup: None)
+            whole = compile_table(kg)
+        assert whole.view is not None and whole.view.reach is None
+        assert len(_triples(within.view)) < len(_triples(whole.view))
+        assert within.plain == whole.plain and within.errors == whole.errors
+        assert any(d.pruned for d in within.plain.values())
