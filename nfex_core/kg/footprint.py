@@ -102,12 +102,13 @@ class Delta:
 
 
 @functools.lru_cache(maxsize=256)
-def _analysed(query: str) -> tuple[Footprint, tuple[Anchor, ...]] | None:
+def anchors(query: str) -> tuple[Anchor, ...] | None:
+    """Each triple pattern of ``query`` with the star of its subject (module docstring); None where that cannot be
+    told (``footprint``)."""
     try:
         algebra = prepare_query(query).algebra
     except Exception:
         return None
-    found: set[tuple[str, str | None]] = set()
     anchors: set[Anchor] = set()
     opaque = False
 
@@ -115,7 +116,6 @@ def _analysed(query: str) -> tuple[Footprint, tuple[Anchor, ...]] | None:
         """Note ``path``'s predicates; ``star``: what its first step's subject must have (empty: nothing known);
         ``obj``: the pattern's constant object, for a plain predicate; ``subj``: its constant subject, for a first step."""
         if isinstance(path, URIRef):
-            found.add((str(path), str(obj) if obj is not None and path == RDF.type else None))
             anchors.add(Anchor(path, obj, star, subj))
             return True
         none: frozenset[tuple[URIRef, URIRef]] = frozenset()
@@ -157,7 +157,7 @@ def _analysed(query: str) -> tuple[Footprint, tuple[Anchor, ...]] | None:
         return None
 
     traverse(algebra, visitPre=visit)
-    return None if opaque else (frozenset(found), tuple(sorted(anchors, key=repr)))
+    return None if opaque else tuple(sorted(anchors, key=repr))
 
 
 def _nullable(path: object) -> bool:
@@ -173,19 +173,16 @@ def _nullable(path: object) -> bool:
     return False
 
 
+@functools.lru_cache(maxsize=256)
 def footprint(query: str) -> Footprint | None:
     """The triples ``query`` can read, as (predicate, object) pairs — the object only for ``rdf:type`` with a
     constant class, else None (any) — or None where that cannot be told (a variable predicate, a negated
-    property set, a pattern rdflib's algebra leaves unparsed, a query rdflib cannot parse)."""
-    analysed = _analysed(query)
-    return None if analysed is None else analysed[0]
-
-
-def anchors(query: str) -> tuple[Anchor, ...] | None:
-    """Each triple pattern of ``query`` with the star of its subject (module docstring); None where ``footprint``
-    is None."""
-    analysed = _analysed(query)
-    return None if analysed is None else analysed[1]
+    property set, a pattern rdflib's algebra leaves unparsed, a query rdflib cannot parse): its anchors, stars
+    and subjects aside."""
+    found = anchors(query)
+    if found is None:
+        return None
+    return frozenset((str(a.predicate), str(a.object) if a.object is not None and a.predicate == RDF.type else None) for a in found)
 
 
 Holds = Callable[[Set[tuple[URIRef, URIRef, URIRef]]], Set[tuple[URIRef, URIRef, URIRef]] | None]
