@@ -17,13 +17,15 @@ version, on a *view*: an in-memory copy of the default graph where
 
 The summaries exist in the view only; ``GET /sparql`` shows the stored graph.
 
-A first view costs one N-Triples dump and load of the stored graph (``bench/bench_rules.py`` prints it).
-The next version's view is made from the last one (``EvidenceView.advance``): with Q the quarantined
-Measurements and S the summary triples, the view at v is V(v) = (G(v) − triples of Q(v)) ∪ S(v). Given
-V(u) and the change G(u) → G(v) (``kg.diff``): take S(u) out, apply the change (removed, then added), take
-out the triples of every Measurement in Q(v), put back from the store those of Q(u) − Q(v), and lay S(v)
-over it. A Measurement of Q(u) lost its triples in V(u) and gets all of G(v)'s back; one of Q(v) loses all
-of them; any other node's triples are G(v)'s. So the result is V(v), provided no stored triple has a
+Of the stored graph the view holds only what the rules can read: R, their *reach* (kg/footprint.py ``Reach``;
+all of it where a rule's patterns cannot be told), about one statement in ten at 3M. A first view costs one
+N-Triples dump of R(G) and its load (``bench/bench_rules.py`` prints it). The next version's view is made from
+the last one (``EvidenceView.advance``): with Q the quarantined Measurements and S the summary triples, the view
+at v is V(v) = R(G(v) − triples of Q(v)) ∪ S(v). Given V(u) and the change G(u) → G(v) (``kg.diff``): take S(u)
+out, apply the change's triples in R (removed, then added), take out the triples of every Measurement in Q(v),
+put back from the store those in R of Q(u) − Q(v), and lay S(v) over it. A Measurement of Q(u) lost its
+triples in V(u) and gets G(v)'s in R back; one of Q(v) loses all of them; any other node's triples are G(v)'s
+in R. So the result is V(v), provided no stored triple has a
 summary node (``nfex:evidence_…``, minted here) as subject — tests/nfex_core/evidence/test_view.py compares
 with a fresh view after random changes. A change that cannot be read, is large (``MAX_CHANGE`` triples) or
 holds blank nodes gets a fresh view.
@@ -48,7 +50,7 @@ from ..kg.changes import ChangeSet
 from ..kg.claims import META
 from ..kg.footprint import Delta, Reach
 from ..kg.history import HEAD, ChangeText
-from ..kg.terms import py
+from ..kg.terms import oxigraph_triples, py
 from ..namespaces import NFEX
 from .aggregate import robust
 from .index import Diff
@@ -178,15 +180,10 @@ class EvidenceView:
         return {t for t in triples if (t in found and str(t[0]) not in self.quarantined) or t in summary}
 
 
-def _summary_triples(lines: Iterable[str]) -> Iterator[tuple[URIRef, URIRef, Node]]:
-    """The triples of summary lines (``summary_lines``: IRIs, and typed literals ``"v"^^<datatype>``)."""
-    for line in lines:
-        s, p, o = line[:-2].split(" ", 2)
-        if o.startswith("<"):
-            yield URIRef(s[1:-1]), URIRef(p[1:-1]), URIRef(o[1:-1])
-        else:
-            value, datatype = o.rsplit("^^", 1)
-            yield URIRef(s[1:-1]), URIRef(p[1:-1]), Literal(value[1:-1], datatype=URIRef(datatype[1:-1]))
+def _summary_triples(lines: Iterable[str]) -> Iterator[tuple[Node, Node, Node]]:
+    """The triples of summary lines (``summary_lines``: N-Triples), read by Oxigraph's parser."""
+    text = "\n".join(lines)
+    return oxigraph_triples(ox.parse(text.encode(), format=ox.RdfFormat.N_TRIPLES)) if text else iter(())
 
 
 def _delta(kg: KnowledgeGraph, change: ChangeSet, before: frozenset[str], after: frozenset[str],
@@ -274,7 +271,7 @@ def _versioned_dump(reach: Reach | None) -> str:
 def _load_through_file(backend: EmbeddedBackend, store: ox.Store, query: str) -> bool:
     """The stored graph dumped into ``store`` through a temporary file, which Oxigraph writes and reads without the
     interpreter lock (into a Python buffer, the dump took the lock for every chunk, against the requests being
-    served: at 3M statements it takes ~20 s). False, with ``store`` left empty, where no such file can be written
+    served: ~20 s for the whole graph at 3M statements). False, with ``store`` left empty, where no such file can be written
     (the dump is ~150 bytes a statement): the caller goes through memory."""
     try:
         with tempfile.TemporaryDirectory(prefix="nfex-view-") as folder:
