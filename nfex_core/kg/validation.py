@@ -92,12 +92,12 @@ class Neighbourhood:
     def __init__(self) -> None:
         self.version = -1
         self.outgoing: dict[Node, frozenset[Triple]] = {}
-        self.incoming: dict[Node, dict[frozenset[URIRef] | None, frozenset[Triple]]] = {}
+        self.incoming: dict[frozenset[URIRef] | None, dict[Node, frozenset[Triple]]] = {}  # per predicate filter
         self.axioms: frozenset[Triple] | None = None
 
     def at(self, version: int) -> Neighbourhood:
         """This cache, for reads of the store at ``version`` (emptied unless it holds that version)."""
-        if version != self.version or len(self.outgoing) + len(self.incoming) > self.MAX_NODES:
+        if version != self.version or len(self.outgoing) + sum(map(len, self.incoming.values())) > self.MAX_NODES:
             self.clear()
             self.version = version
         return self
@@ -113,7 +113,8 @@ class Neighbourhood:
             return
         for s, p, o in (*change.added, *change.removed):
             self.outgoing.pop(s, None)
-            self.incoming.pop(o, None)
+            for kept in self.incoming.values():
+                kept.pop(o, None)
             if p == RDFS.subClassOf:
                 self.axioms = None
         self.version = version + 1
@@ -169,14 +170,8 @@ class CandidateView:
         pred_filter = (
             f"VALUES ?p {{ {' '.join(n3(p) for p in sorted(preds))} }}" if preds is not None else f"FILTER (?p != {n3(RDF.type)})"
         )
-        kept: dict[Node, frozenset[Triple]] | None = None
-        if self.cache is not None:
-            kept = {n: found[preds] for n in nodes if preds in (found := self.cache.incoming.get(n, {}))}
-        out = self._stored(nodes, kept, 2,
+        out = self._stored(nodes, self.cache.incoming.setdefault(preds, {}) if self.cache is not None else None, 2,
                            lambda values: f"CONSTRUCT {{ ?s ?p ?o }} WHERE {{ VALUES ?o {{ {values} }} ?s ?p ?o . {pred_filter} }}")
-        if self.cache is not None and kept is not None:
-            for n, ts in kept.items():
-                self.cache.incoming.setdefault(n, {})[preds] = ts
         out -= self.change.removed
         for n in nodes:
             for t in self._added_by_o.get(n, set()):
