@@ -134,16 +134,15 @@ class RuleTable:
         decision = self.decisions[key]
         if key not in self._evidenced:
             known = {d: v for d, v in zip(self.dimensions, key, strict=True) if v is not None}
-            decision = replace(decision, evidence=self._evidence(known))
+            decision = replace(decision, evidence=self._evidence(key, known))
             self.decisions[key] = decision
             self._evidenced.add(key)
         return decision
 
-    def _evidence(self, known: dict[str, str]) -> dict[str, Evidence]:
+    def _evidence(self, key: ContextKey, known: dict[str, str]) -> dict[str, Evidence]:
         out: dict[str, Evidence] = {}
         if not known:
             return out
-        key = self.key(known)
         for x, groups in self.observed.items():
             found = self._made((key, x), groups, lambda groups=groups: _evidence(groups, known))  # type: ignore[misc]
             if found is not None:
