@@ -15,10 +15,11 @@ from tests.conftest import free_port, stop_process
 
 def test_serve_starts_on_an_empty_home(tmp_path: Path, record_property: pytest.RecordProperty) -> None:
     """No ~/.local/share, no XDG_DATA_HOME, no NFEX_STORE: the default store folder and its parents are
-    created, the store is seeded and the service becomes ready."""
+    created, the store is seeded and the service becomes ready, its compiled rule table kept for the next start
+    in the empty HOME's cache (rules/persisted.py), a folder of this user's only."""
     home = tmp_path / "home"
     home.mkdir()
-    env = {k: v for k, v in os.environ.items() if k not in ("XDG_DATA_HOME", "NFEX_STORE")}
+    env = {k: v for k, v in os.environ.items() if k not in ("XDG_DATA_HOME", "XDG_CACHE_HOME", "NFEX_STORE", "NFEX_COMPILED_CACHE")}
     env["HOME"] = str(home)
     port = free_port()
     log = tmp_path / "serve.log"
@@ -46,5 +47,7 @@ def test_serve_starts_on_an_empty_home(tmp_path: Path, record_property: pytest.R
         print(f"nfex serve on an empty HOME: ready in {ready_s:.1f} s")
         assert httpx.get(url).json()["store"] == str(home / ".local" / "share" / "nfex" / "store")
         assert (home / ".local" / "share" / "nfex" / "store").is_dir()
+        compiled = home / ".cache" / "nfex" / "compiled"
+        assert len(list(compiled.glob("*.pickle"))) == 1 and compiled.stat().st_mode & 0o777 == 0o700
     finally:
         stop_process(proc)
