@@ -153,11 +153,11 @@ class EvidenceView:
         readmitted = sorted(self.quarantined - quarantined)
         version = head
         for i in range(0, len(readmitted), _BATCH):
-            dump = io.BytesIO()
+            readmission = io.BytesIO()
             values = " ".join(f"<{m}>" for m in readmitted[i : i + _BATCH])
             within = "?s ?p ?o" if reach is None else reach.pattern()
-            kg.backend.query_to(f"CONSTRUCT {{ ?s ?p ?o }} WHERE {{ VALUES ?s {{ {values} }} {within} }}", "application/n-triples", dump)
-            store.load(dump.getvalue(), format=ox.RdfFormat.N_TRIPLES)
+            kg.backend.query_to(f"CONSTRUCT {{ ?s ?p ?o }} WHERE {{ VALUES ?s {{ {values} }} {within} }}", "application/n-triples", readmission)
+            store.load(readmission.getvalue(), format=ox.RdfFormat.N_TRIPLES)
             version = _settled(kg, head)  # read from the store: pinned to ``head`` only if no commit landed since
         _insert_data(store, sorted(summary - self.summary))
         delta = _delta(kg, change, self.quarantined, quarantined, self.summary, summary)
