@@ -13,6 +13,8 @@ same. The kinds of change:
   corroboration (evidence/trust.py), the common case of a fleet's stream;
 - ``admitted``: the same with ``nfex:minSources 1``, so every report is admitted and changes the evidence
   summaries the measured rules read;
+- ``admitted-fast``: an admitted report under agent = car and motion = fast, inside the star of the shipped
+  expert rule (kg/footprint.py), which then counts every car + fast Measurement again;
 - ``editor``: an editor's small ``kg update`` that disables and re-enables a DSL statement (configuration:
   the whole table is compiled again, what ``/sparql/update``'s read-your-writes waits for).
 """
@@ -37,7 +39,7 @@ from nfex_core.kg import KnowledgeGraph  # noqa: E402
 from nfex_core.rules.engine import compile_table  # noqa: E402
 
 PREFIX = "PREFIX nfex: <https://w3id.org/nfex#> "
-KINDS = ("quarantined", "admitted", "editor")
+KINDS = ("quarantined", "admitted", "admitted-fast", "editor")
 
 
 def _change(kg: KnowledgeGraph, writer: ReportWriter, kind: str, i: int, statement: str) -> None:
@@ -45,7 +47,8 @@ def _change(kg: KnowledgeGraph, writer: ReportWriter, kind: str, i: int, stateme
         toggle = "INSERT DATA" if i % 2 == 0 else "DELETE DATA"
         kg.update(PREFIX + f"{toggle} {{ <{statement}> nfex:enabled false }}", author="bench")
         return
-    writer.write(Feedback("SIFT", {}, {"agent": "car", "light": "dark"}, sequence=f"bench-{kind}-{i}", dataset="bench",
+    conditions = {"agent": "car", "motion": "fast"} if kind == "admitted-fast" else {"agent": "car", "light": "dark"}
+    writer.write(Feedback("SIFT", {}, conditions, sequence=f"bench-{kind}-{i}", dataset="bench",
                           reporter="bench", frames=10, ate_rmse=0.05 + 0.01 * i, extraction_ms=40.0,
                           width=1241, height=376, tracking_lost=0))
 
@@ -60,7 +63,7 @@ def run(size: int, reports: int, kinds: list[str], settings: Settings, full: boo
         try:
             statement = str(kg.select("SELECT ?s WHERE { ?s nfex:inProgram ?p } ORDER BY ?s").rows[0]["s"])
             for kind in kinds:
-                if kind == "admitted":
+                if kind.startswith("admitted"):
                     kg.update(PREFIX + "DELETE { nfex:minSources nfex:value ?n } INSERT { nfex:minSources nfex:value 1 } "
                               "WHERE { OPTIONAL { nfex:minSources nfex:value ?n } }", author="bench")
                 t = time.perf_counter()
