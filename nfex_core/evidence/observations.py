@@ -8,23 +8,24 @@ the editor who accepted it). The rule engine, the cost model and the dynamic bas
 """
 from __future__ import annotations
 
+import concurrent.futures
+import operator
+import os
 from collections.abc import Collection
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from ..kg.backends import EmbeddedBackend
 from ..kg.history import prefix_block
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
 
-# One query, so that it reads one state of the store, in branches that each scan one predicate (joined here):
-# Oxigraph evaluates an OPTIONAL group on its own and joins afterwards, so the form with an OPTIONAL per attribute
-# took 21.6 s at 3M statements in a probe, these branches 8.6 s (tests/nfex_core/evidence/test_observations.py holds the
-# plain form as the oracle). ?k names the branch; ?m is the Measurement, except
-# in the branches about configurations (``cfg``: ?m a configuration, ?a its extractor's token) and condition
-# values (``value``: ?m a value, ?a its dimension's token, ?b its own). Where a Measurement has two values of an
-# attribute, the first seen is kept.
+# The attributes of a Measurement, in branches that each scan one predicate (joined here): Oxigraph evaluates an
+# OPTIONAL group on its own and joins afterwards, so one query with an OPTIONAL per attribute took 21.6 s at 3M
+# statements in a probe (tests/nfex_core/evidence/test_observations.py holds that plain form as the oracle). ?m is
+# the Measurement, except in the branches about configurations (``cfg``: ?m a configuration, ?a its extractor's
+# token) and condition values (``value``: ?m a value, ?a its dimension's token, ?b its own). Where a Measurement has
+# two values of an attribute, the first seen is kept.
 _BRANCHES = {
     "type": "?m a nfex:Measurement .", "proc": "?m sosa:usedProcedure ?a . FILTER (!isLiteral(?a))",
     "cond": "?m nfex:underCondition ?a . FILTER (!isLiteral(?a))",
@@ -36,24 +37,40 @@ _BRANCHES = {
 }
 _SHARED = {"cfg": ("sosa:usedProcedure", "?m nfex:ofExtractor/nfex:token ?a ."),
            "value": ("nfex:underCondition", "?m nfex:token ?b ; nfex:inDimension/nfex:token ?a .")}
+KEYS = (*_BRANCHES, *_SHARED)
+
+
+def _pattern(key: str, iris: str | None) -> str:
+    """Branch ``key``'s graph pattern; ``iris``: the Measurements it is restricted to, written out (a VALUES block,
+    so that it is a lookup, not a scan; for ``cfg`` and ``value``, the configurations and condition values of
+    these Measurements)."""
+    if key in _SHARED:
+        link, pattern = _SHARED[key]
+        return pattern if iris is None else f"VALUES ?of {{ {iris} }} ?of {link} ?m . {pattern}"
+    return _BRANCHES[key] if iris is None else f"VALUES ?m {{ {iris} }} {_BRANCHES[key]}"
+
+
+def _written(only: Collection[str] | None) -> str | None:
+    return None if only is None else " ".join(f"<{i}>" for i in sorted(only))
+
+
+def branch_query(key: str, only: Collection[str] | None = None) -> str:
+    """Branch ``key`` as a query of ``?m ?a ?b`` (what a full read sends, one per branch)."""
+    return f"SELECT ?m ?a ?b WHERE {{ {_pattern(key, _written(only))} }}"
 
 
 def observation_query(only: Collection[str] | None = None) -> str:
-    """The query ``read_observations`` sends; ``only``: the Measurements it is restricted to (a VALUES block in
-    each of their branches, so each is a lookup, not a scan; the configurations and condition values are then
-    those of these Measurements)."""
-    iris = None if only is None else " ".join(f"<{i}>" for i in sorted(only))
-    values = "" if iris is None else f"VALUES ?m {{ {iris} }} "
-    branches = [f'{{ {values}{pattern} BIND ("{k}" AS ?k) }}' for k, pattern in _BRANCHES.items()]
-    branches += [f'{{ {"" if iris is None else f"VALUES ?of {{ {iris} }} ?of {link} ?m . "}{pattern} BIND ("{k}" AS ?k) }}'
-                 for k, (link, pattern) in _SHARED.items()]
+    """Every branch in one query, ``?k`` naming the branch: what a restricted read sends, and the footprint of
+    the rows (evidence/index.py)."""
+    iris = _written(only)
+    branches = [f'{{ {_pattern(k, iris)} BIND ("{k}" AS ?k) }}' for k in KEYS]
     return "SELECT ?m ?k ?a ?b WHERE {\n" + "\n  UNION ".join(branches) + "\n}"
 
 
 OBSERVATIONS = observation_query()
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Observation:
     """One Measurement: what it measured, under which conditions, and who stands behind it."""
 
@@ -74,6 +91,11 @@ class Observation:
     reporter: str | None = None  # prov:wasAttributedTo: a client's report (trust.py)
     accepted_by: str | None = None  # nfex:acceptedBy: the editor who admitted the report
 
+    def __reduce__(self) -> tuple[type[Observation], tuple[object, ...]]:
+        """Pickled as its fields in order: the kept rule table (rules/persisted.py) holds every Observation, and a
+        dataclass's own state is about four times slower to write (0.6 s for 60k in a probe)."""
+        return Observation, _FIELDS(self)
+
     @property
     def source(self) -> str:
         """Who stands behind it: the reporter of a report, else the run that measured it."""
@@ -85,63 +107,72 @@ class Observation:
         return any(known.get(d) == v for d, v in self.conditions) and all(known.get(d, v) == v for d, v in self.conditions)
 
 
+_FIELDS = operator.attrgetter(*Observation.__slots__)
+
+
 def read_observations(kg: KnowledgeGraph, only: Collection[str] | None = None) -> list[Observation]:
-    """Every Measurement of the graph (one query: a row per attribute, folded here); ``only``: just these IRIs
-    (those that are Measurements), for evidence/index.py's incremental reading."""
+    """Every Measurement of the graph (a row per attribute, folded here); ``only``: just these IRIs (those that are
+    Measurements), for evidence/index.py's incremental reading.
+
+    A restricted read is one query. A full read sends each branch as a query of its own, side by side on threads:
+    the store evaluates and serialises a query without the interpreter lock (``Backend.values``), so on two cores
+    a full read takes about half as long (4.0 → 1.8 s for the queries at 3M statements in a probe). A commit that
+    lands between two of them may show in some rows of a Measurement and not in others, as a commit landing
+    during one query may show in the index at an earlier version: its nodes are in the next advance's change,
+    and read again then."""
     if only is not None and not only:
         return []
-    query = observation_query(only)
-    rows: list[tuple[str, str, str | None, str | None]] = []
-    if isinstance(kg.backend, EmbeddedBackend):  # Oxigraph's terms, lexical forms read directly: no rdflib terms
-        for sol in kg.backend.solutions(prefix_block() + query):
-            a, b = sol["a"], sol["b"]
-            rows.append((sol["m"].value, sol["k"].value, a.value if a is not None else None, b.value if b is not None else None))
+    parts: dict[str, list[list[str]]] = {k: [] for k in KEYS}  # branch → its rows (?m ?a ?b)
+    if only is not None:
+        for m, k, a, b in kg.backend.values(prefix_block() + observation_query(only)):
+            parts[k].append([m, a, b])
     else:
-        for r in kg.select(query).rows:
-            rows.append((str(r["m"]), str(r["k"]), str(r["a"]) if "a" in r else None, str(r["b"]) if "b" in r else None))
-    measurements: dict[str, None] = {}  # in the order read
-    extractor: dict[str, str] = {}  # configuration → its extractor's token
+        with concurrent.futures.ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1),
+                                                   thread_name_prefix="nfex-observations") as pool:
+            parts.update(zip(KEYS, pool.map(lambda k: kg.backend.values(prefix_block() + branch_query(k)), KEYS), strict=True))
+    return _fold(parts)
+
+
+def _fold(parts: dict[str, list[list[str]]]) -> list[Observation]:
+    """The Observations of the branches' rows: a Measurement of a configuration of an extractor, with its
+    attributes where present (the first row of each, in the order read)."""
+
+    def first(key: str) -> dict[str, tuple[str, str]]:  # reversed: the first row of a node is written last
+        return {m: (a, b) for m, a, b in reversed(parts[key])}
+
+    extractor = {c: a for c, (a, _) in first("cfg").items()}  # configuration → its extractor's token
     tokens: dict[str, set[tuple[str, str]]] = {}  # condition value → (dimension, value) tokens
+    for value, dimension, token in parts["value"]:
+        tokens.setdefault(value, set()).add((dimension, token))
     procedures: dict[str, list[str]] = {}
-    values: dict[str, dict[str, tuple[str | None, str | None]]] = {}
+    for m, a, _ in parts["proc"]:
+        procedures.setdefault(m, []).append(a)
     within: dict[str, list[str]] = {}  # Measurement → condition values
-    for m, k, a, b in rows:
-        if k == "type":
-            measurements[m] = None
-        elif k == "proc":
-            procedures.setdefault(m, []).append(a or "")
-        elif k == "cond":
-            within.setdefault(m, []).append(a or "")
-        elif k == "cfg":
-            extractor.setdefault(m, a or "")
-        elif k == "value":
-            tokens.setdefault(m, set()).add((a or "", b or ""))
-        else:
-            values.setdefault(m, {}).setdefault(k, (a, b))
-    base: dict[str, tuple[str, str]] = {}
-    for m in measurements:
-        cfg = next((c for c in procedures.get(m, ()) if c in extractor), None)
-        if cfg is not None:
-            base[m] = (cfg, extractor[cfg])
-    conditions = {m: {t for c in cs for t in tokens.get(c, ())} for m, cs in within.items()}
+    for m, a, _ in parts["cond"]:
+        within.setdefault(m, []).append(a)
+    ate, ms, size, failed, lost, frames, seq, run, reporter, accepted = (first(k) for k in (
+        "ate", "ms", "size", "failed", "lost", "frames", "seq", "run", "reporter", "accepted"))
     out = []
-    for m, (cfg, xname) in base.items():
-        v = values.get(m, {})
-
-        def lex(key: str, v: dict[str, tuple[str | None, str | None]] = v) -> str | None:
-            return v[key][0] if key in v else None
-
-        size = v.get("size")
-        seq = v.get("seq")
+    for m in dict.fromkeys(r[0] for r in parts["type"]):  # in the order read, once each
+        cfg = next((c for c in procedures.get(m, ()) if c in extractor), None)
+        if cfg is None:
+            continue
+        wh, sq = size.get(m), seq.get(m)
         out.append(Observation(
-            iri=m, extractor=xname, configuration=cfg, conditions=frozenset(conditions.get(m, ())),
-            ate=_float(lex("ate")), extraction_ms=_float(lex("ms")),
-            width=_int(size[0]) if size else None, height=_int(size[1]) if size else None,
-            failed=_bool(lex("failed")), lost=_int(lex("lost")), frames=_int(lex("frames")),
-            sequence=seq[0] if seq else None, sequence_label=seq[1] if seq else None,
-            run=lex("run"), reporter=lex("reporter"), accepted_by=lex("accepted"),
+            iri=m, extractor=extractor[cfg], configuration=cfg,
+            conditions=frozenset(t for c in within.get(m, ()) for t in tokens.get(c, ())),
+            ate=_float(_a(ate, m)), extraction_ms=_float(_a(ms, m)),
+            width=_int(wh[0]) if wh else None, height=_int(wh[1]) if wh else None,
+            failed=_bool(_a(failed, m)), lost=_int(_a(lost, m)), frames=_int(_a(frames, m)),
+            sequence=sq[0] if sq else None, sequence_label=(sq[1] or None) if sq else None,
+            run=_a(run, m), reporter=_a(reporter, m), accepted_by=_a(accepted, m),
         ))
     return out
+
+
+def _a(attribute: dict[str, tuple[str, str]], m: str) -> str | None:
+    found = attribute.get(m)
+    return found[0] if found is not None else None
 
 
 def _float(lex: str | None) -> float | None:

@@ -6,13 +6,16 @@ the rule engine) is written once, in SPARQL:
 - ``select``/``ask``/``construct`` return rdflib terms;
 - ``update`` runs one SPARQL 1.1 Update request, which both Oxigraph and SPARQL servers apply as one
   transaction (all or nothing);
-- ``query_to`` writes a query's results, serialised in a requested format, to a sink (the HTTP endpoint).
+- ``query_to`` writes a query's results, serialised in a requested format, to a sink (the HTTP endpoint);
+- ``values`` reads a SELECT's rows as plain strings, for readers of many rows (no rdflib term per value).
 
 The embedded store is RocksDB underneath: a committed update survives a crash, and a process killed
 in the middle of an update leaves the last committed state (RocksDB's write-ahead log).
 """
 from __future__ import annotations
 
+import csv
+import io
 import json
 import random
 import re
@@ -138,8 +141,32 @@ class Backend(ABC):
         HTTP endpoint passes a writer that enforces its time and size limits); returns the media type
         written, ``media`` or the form's default when ``media`` does not fit the query's form."""
 
+    def values(self, query: str) -> list[list[str]]:
+        """A SELECT's rows, each value as the SPARQL 1.1 CSV results format writes it — an IRI bare, a literal its
+        lexical form (no datatype or language), a blank node ``_:label``, ``""`` where unbound — in the order of
+        the SELECT's variables. For readers of many rows that need the strings only: the server serialises and
+        Python's csv module parses, no term object is made per value. A server that does not answer CSV is read
+        through ``select``."""
+        out = io.BytesIO()
+        if self.query_to(query, "text/csv", out) == "text/csv":
+            return _csv_rows(out.getvalue())
+        result = self.select(query)
+        return [[_lexical(r.get(v)) for v in result.variables] for r in result.rows]
+
     def close(self) -> None:  # noqa: B027 - optional hook
         pass
+
+
+def _csv_rows(data: bytes) -> list[list[str]]:
+    """The rows of a CSV results document, its header line dropped (csv reads quoted line breaks in values)."""
+    return list(csv.reader(io.StringIO(data.decode("utf-8"), newline="")))[1:]
+
+
+def _lexical(term: Node | None) -> str:
+    """A term as the CSV results format writes it."""
+    if term is None:
+        return ""
+    return f"_:{term}" if isinstance(term, BNode) else str(term)
 
 
 class EmbeddedBackend(Backend):
@@ -231,6 +258,14 @@ class EmbeddedBackend(Backend):
             media = media if media in RESULT_FORMATS else "application/sparql-results+json"
             res.serialize(out, format=RESULT_FORMATS[media])
         return media
+
+    def values(self, query: str) -> list[list[str]]:
+        """As ``Backend.values``, serialised by Oxigraph to one buffer: the query runs without the interpreter lock,
+        so such reads proceed side by side on threads."""
+        res = self._run(query)
+        if not isinstance(res, ox.QuerySolutions):
+            raise BadInput("expected a SELECT query")
+        return _csv_rows(res.serialize(format=ox.QueryResultsFormat.CSV) or b"")
 
     def construct_to_file(self, query: str, path: str) -> None:
         """A CONSTRUCT's triples written as N-Triples to the file ``path`` by Oxigraph, without the interpreter lock

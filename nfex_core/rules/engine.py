@@ -249,6 +249,9 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     t0 = time.perf_counter()
     version = kg.version
     diff = functools.cache(kg.diff)  # the stages below read the same change once
+    # a full read of the observations runs in the store without the interpreter lock (observations.py) while the
+    # configuration stage below parses the rules' queries with it
+    reading = _pool().submit(ObservationIndex.read, kg) if previous is None or previous.index is None else None
     absent = backend_citations(kg, kg.vocabulary().extractors)
     setup = _carried_setup(kg, previous, version, diff, absent) or Setup.read(kg, absent, previous.setup if previous is not None else None)
     vocab, dims = setup.vocab, setup.dimensions
@@ -256,7 +259,11 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     # a fresh view's copy of the store is made while the observations are read (Oxigraph dumps without the lock)
     copying = _pool().submit(dump, kg, reach) if setup.rules and (
         previous is None or previous.view is None or previous.view.reach != reach) else None
-    index = previous.index.advance(kg, diff, version) if previous is not None and previous.index is not None else ObservationIndex.read(kg)
+    if reading is not None:
+        index = reading.result()
+    else:
+        assert previous is not None and previous.index is not None
+        index = previous.index.advance(kg, diff, version)
     grouped = previous.grouped.advance(previous.index.observations, index.observations, index.changed, setup.policy) \
         if previous is not None and previous.grouped is not None and previous.index is not None and index.changed is not None \
         and previous.setup is not None and previous.setup.policy == setup.policy \

@@ -11,6 +11,7 @@ from rdflib.namespace import RDFS
 from nfex_core.errors import Conflict, ParseError, StoreUnavailable, ValidationFailed
 from nfex_core.kg import ChangeSet, KnowledgeGraph, parse_rdf
 from nfex_core.kg.backends import RemoteBackend
+from nfex_core.kg.history import prefix_block
 from nfex_core.namespaces import NFEX
 from tests.conftest import SparqlServer
 
@@ -115,3 +116,27 @@ def test_writes_valid_alone_but_not_together_cannot_both_land(sparql_server: Spa
         t.join()
     assert sorted(outcomes) == ["landed", "rejected"]
     assert nodes[0].version == 2
+
+
+def test_values_are_the_lexical_forms_on_every_store(sparql_server: SparqlServer, kg: KnowledgeGraph) -> None:
+    """``Backend.values`` (the CSV results format) reads each value as its lexical form, on the embedded store and on
+    both servers alike, and a server that does not answer CSV is read through ``select``."""
+    remote = sparql_server.open()
+    text = 'a comment, "quoted"\nover two lines: ü'
+    change = ChangeSet(added={(NFEX.ORB, RDFS.comment, Literal(text))})
+    for graph in (remote, kg):
+        graph.commit(change, author="a", message="comment")
+    query = """SELECT ?x ?c ?n ?none WHERE { ?x rdfs:comment ?c FILTER (CONTAINS(STR(?c), "quoted"))
+        nfex:ORB_nfeatures nfex:defaultValue ?n OPTIONAL { ?x nfex:noSuchAttribute ?none } }"""
+    expected = [[str(NFEX.ORB), text, "500", ""]]
+    query = prefix_block() + query
+    assert kg.backend.values(query) == expected
+    assert remote.backend.values(query) == expected
+
+    class JsonOnly(RemoteBackend):  # a server that answers JSON whatever it is asked
+        def query_to(self, query: str, media: str, out, timeout_s: float | None = None) -> str:  # type: ignore[no-untyped-def]
+            return super().query_to(query, "application/sparql-results+json", out, timeout_s)
+
+    settings = sparql_server.settings()
+    json_only = JsonOnly(sparql_server.url, user=settings.store_user, password=settings.store_password, graph=settings.store_graph)
+    assert json_only.values(query) == expected
