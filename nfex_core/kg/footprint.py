@@ -19,17 +19,26 @@ BGP's solutions leaves it as it was. Only a pattern's first step is anchored to 
 object narrows a pattern to the triples that have it. ``Reach`` is the union of a query set's patterns: the
 triples they can read at all. A path that may be of length zero (``p*``, ``p?``) between two variables matches
 every node of the graph to itself, so a query with one has no footprint.
+
+Each pattern also has a *sign*: how the answer moves when its BGP's solutions grow. Join, union, filter, BIND,
+projection and DISTINCT are monotone, so at the top a pattern's sign is +1; the right side of a MINUS flips it (a
+solution there takes rows out); the right side of an OPTIONAL, an aggregate, a LIMIT/OFFSET or an EXISTS make it
+0 (either way). A change whose every triple that matters (star held) adds to a pattern of sign −1 or removes from
+one of sign +1 can only take rows out of the answer (``change_effect``: ``SHRINKS``); so an answer that was empty
+stays empty — a prior that has yielded to evidence stays silent however much more evidence comes (rules/engine.py).
 """
 from __future__ import annotations
 
+import enum
 import functools
 from collections.abc import Callable, Collection, Iterable, Set
 from dataclasses import dataclass
-from typing import Any
 
+from pyparsing import ParseResults
 from rdflib.namespace import RDF
 from rdflib.paths import AlternativePath, InvPath, MulPath, SequencePath
-from rdflib.plugins.sparql.algebra import translateGroupGraphPattern, traverse
+from rdflib.plugins.sparql.algebra import translateGroupGraphPattern
+from rdflib.plugins.sparql.parserutils import CompValue
 from rdflib.term import BNode, Node, URIRef, Variable
 
 from .backends import GraphReader, SelectResult
@@ -50,6 +59,7 @@ class Anchor:
     object: URIRef | None
     star: frozenset[tuple[URIRef, URIRef]]
     subject: URIRef | None = None
+    sign: int = 1  # +1: the answer grows with its BGP's solutions, −1: it shrinks, 0: either (module docstring)
 
     def matches(self, t: tuple[Node, Node, Node]) -> bool:
         return t[1] == self.predicate and (self.object is None or t[2] == self.object) and (self.subject is None or t[0] == self.subject)
@@ -103,8 +113,8 @@ class Delta:
 
 @functools.lru_cache(maxsize=256)
 def anchors(query: str) -> tuple[Anchor, ...] | None:
-    """Each triple pattern of ``query`` with the star of its subject (module docstring); None where that cannot be
-    told (``footprint``)."""
+    """Each triple pattern of ``query`` with the star of its subject and its sign (module docstring); None where that
+    cannot be told (``footprint``)."""
     try:
         algebra = prepare_query(query).algebra
     except Exception:
@@ -112,52 +122,73 @@ def anchors(query: str) -> tuple[Anchor, ...] | None:
     anchors: set[Anchor] = set()
     opaque = False
 
-    def predicates(path: object, star: frozenset[tuple[URIRef, URIRef]], obj: URIRef | None = None, subj: URIRef | None = None) -> bool:
+    def predicates(path: object, star: frozenset[tuple[URIRef, URIRef]], sign: int, obj: URIRef | None = None,
+                   subj: URIRef | None = None) -> bool:
         """Note ``path``'s predicates; ``star``: what its first step's subject must have (empty: nothing known);
         ``obj``: the pattern's constant object, for a plain predicate; ``subj``: its constant subject, for a first step."""
         if isinstance(path, URIRef):
-            anchors.add(Anchor(path, obj, star, subj))
+            anchors.add(Anchor(path, obj, star, subj, sign))
             return True
         none: frozenset[tuple[URIRef, URIRef]] = frozenset()
-        if isinstance(path, SequencePath):
-            return predicates(path.args[0], star, None, subj) and all(predicates(a, none) for a in path.args[1:])
+        if isinstance(path, SequencePath):  # paths are monotone in their triples: the pattern's sign
+            return predicates(path.args[0], star, sign, None, subj) and all(predicates(a, none, sign) for a in path.args[1:])
         if isinstance(path, AlternativePath):
-            return all(predicates(a, star, None, subj) for a in path.args)
+            return all(predicates(a, star, sign, None, subj) for a in path.args)
         if isinstance(path, InvPath):
-            return predicates(path.arg, none)
+            return predicates(path.arg, none, sign)
         if isinstance(path, MulPath):
-            return predicates(path.path, none)
+            return predicates(path.path, none, sign)
         return False  # a variable, a negated property set
 
-    def visit(node: Any) -> Any:
+    def bgp(node: CompValue, sign: int) -> None:
         nonlocal opaque
-        name = getattr(node, "name", None)
-        if name == "GroupGraphPatternSub":  # an EXISTS pattern, which rdflib leaves as parsed: translated here
-            try:
-                inner = translateGroupGraphPattern(node)
-            except Exception:
+        stars: dict[Node, set[tuple[URIRef, URIRef]]] = {}
+        for s, p, o in node.triples:
+            if isinstance(s, Variable | BNode) and isinstance(p, URIRef) and isinstance(o, URIRef):
+                stars.setdefault(s, set()).add((p, o))
+        for s, p, o in node.triples:
+            if not predicates(p, frozenset(stars.get(s, ())), sign, o if isinstance(o, URIRef) else None,
+                              s if isinstance(s, URIRef) else None):
                 opaque = True
-                return node
-            traverse(inner, visitPre=visit)
-            return inner  # not None: traverse does not descend into the parsed form
+            # a path that may be of length zero between two variables matches every node of the graph to itself
+            if _nullable(p) and isinstance(s, Variable | BNode) and isinstance(o, Variable | BNode):
+                opaque = True
+
+    def walk(node: object, sign: int) -> None:
+        nonlocal opaque
+        if isinstance(node, list | tuple | ParseResults):
+            for item in node:
+                walk(item, sign)
+            return
+        if not isinstance(node, CompValue):
+            return
+        name = node.name
         if name in _OPAQUE:
             opaque = True
         elif name == "BGP":
-            stars: dict[Node, set[tuple[URIRef, URIRef]]] = {}
-            for s, p, o in node.triples:
-                if isinstance(s, Variable | BNode) and isinstance(p, URIRef) and isinstance(o, URIRef):
-                    stars.setdefault(s, set()).add((p, o))
-            for s, p, o in node.triples:
-                if not predicates(p, frozenset(stars.get(s, ())), o if isinstance(o, URIRef) else None,
-                                  s if isinstance(s, URIRef) else None):
-                    opaque = True
-                # a path that may be of length zero between two variables matches every node of the graph to itself
-                if _nullable(p) and isinstance(s, Variable | BNode) and isinstance(o, Variable | BNode):
-                    opaque = True
-        return None
+            bgp(node, sign)
+        elif name == "GroupGraphPatternSub":  # an EXISTS pattern, which rdflib leaves as parsed: translated here
+            try:
+                walk(translateGroupGraphPattern(node), 0)
+            except Exception:
+                opaque = True
+        elif name == "Minus":
+            walk(node.p1, sign)
+            walk(node.p2, -sign)
+        elif name == "LeftJoin":
+            walk(node.p1, sign)
+            walk(node.p2, 0)
+            walk(node.get("expr"), 0)
+        else:
+            inner = 0 if name in _EITHER_WAY else sign
+            for key, value in node.items():
+                walk(value, 0 if key == "expr" else inner)  # a filter's or BIND's expression reads the graph only in an EXISTS
 
-    traverse(algebra, visitPre=visit)
+    walk(algebra, 1)
     return None if opaque else tuple(sorted(anchors, key=repr))
+
+
+_EITHER_WAY = {"Group", "AggregateJoin", "Slice", "Builtin_EXISTS", "Builtin_NOTEXISTS"}  # what is below moves the answer either way
 
 
 def _nullable(path: object) -> bool:
@@ -188,38 +219,54 @@ def footprint(query: str) -> Footprint | None:
 Holds = Callable[[Set[tuple[URIRef, URIRef, URIRef]]], Set[tuple[URIRef, URIRef, URIRef]] | None]
 
 
-def change_reads(anchors: Iterable[Anchor], delta: Delta, holds: Holds) -> bool:
-    """Whether the change ``delta`` can change the answer of a query with ``anchors``: some changed triple matches a
-    pattern whose subject's star held, after the change for an added triple and before it for a removed one.
-    ``holds(triples)``: which of ``triples`` the graph holds after the change (None: cannot tell); asked once, for
-    the star triples the change itself does not settle (a triple it added is there after and not before; one it
-    removed the other way round; any other is there before exactly when after)."""
+class Effect(enum.Enum):
+    """What a change can do to a query's answer (``change_effect``)."""
+
+    NONE = "none"  # the answer is as it was
+    SHRINKS = "shrinks"  # the answer after holds only rows it held before
+    ANY = "any"
+
+
+def change_effect(anchors: Iterable[Anchor], delta: Delta, holds: Holds) -> Effect:
+    """What the change ``delta`` can do to the answer of a query with ``anchors``. A changed triple matters to a pattern
+    it matches whose subject's star held, after the change for an added triple and before it for a removed one; none
+    that matters: ``NONE``; each that matters adding to a pattern of sign −1 or removing from one of sign +1:
+    ``SHRINKS``; else ``ANY``. ``holds(triples)``: which of ``triples`` the graph holds after the change (None: cannot
+    tell); asked once, for the star triples the change itself does not settle (a triple it added is there after and
+    not before; one it removed the other way round; any other is there before exactly when after)."""
     by_predicate: dict[URIRef, list[Anchor]] = {}
     for a in anchors:
         by_predicate.setdefault(a.predicate, []).append(a)
-    wanted: list[tuple[bool, frozenset[tuple[URIRef, URIRef, URIRef]]]] = []  # (after?, a star on one subject)
+    moves: set[int] = set()  # how the answer moves with each change that matters: +1 grows, −1 shrinks, 0 either
+    wanted: list[tuple[bool, frozenset[tuple[URIRef, URIRef, URIRef]], int]] = []  # (after?, a star on one subject, move)
     for after, triples in ((True, delta.added), (False, delta.removed)):
         for s, p, o in triples:
             for a in by_predicate.get(p, ()):  # type: ignore[call-overload]
                 if not a.matches((s, p, o)):
                     continue
-                if not a.star:
-                    return True
-                if not isinstance(s, URIRef):
-                    return True
-                wanted.append((after, frozenset((s, sp, so) for sp, so in a.star)))
-    if not wanted:
-        return False
-    unsettled = {t for _, star in wanted for t in star if t not in delta.added and t not in delta.removed}
+                move = a.sign if after else -a.sign
+                if not a.star or not isinstance(s, URIRef):
+                    moves.add(move)
+                else:
+                    wanted.append((after, frozenset((s, sp, so) for sp, so in a.star), move))
+    pending = [w for w in wanted if w[2] not in moves]  # a star need not be asked where its move is already known
+    unsettled = {t for _, star, _ in pending for t in star if t not in delta.added and t not in delta.removed}
     held = holds(unsettled) if unsettled else set()
     if held is None:
-        return True
-    for after, star in wanted:
+        return Effect.ANY
+    for after, star, move in pending:
         there = (lambda t: t in delta.added or (t not in delta.removed and t in held)) if after \
             else (lambda t: t in delta.removed or (t not in delta.added and t in held))
         if all(there(t) for t in star):
-            return True
-    return False
+            moves.add(move)
+    if not moves:
+        return Effect.NONE
+    return Effect.SHRINKS if moves == {-1} else Effect.ANY
+
+
+def change_reads(anchors: Iterable[Anchor], delta: Delta, holds: Holds) -> bool:
+    """Whether the change ``delta`` can change the answer of a query with ``anchors`` at all (``change_effect``)."""
+    return change_effect(anchors, delta, holds) is not Effect.NONE
 
 
 def pairs(triples: Iterable[Triple]) -> frozenset[tuple[str, str]]:

@@ -44,7 +44,7 @@ from ..evidence.index import Diff, ObservationIndex
 from ..evidence.view import EvidenceView, dump, evidence_view, summary_lines
 from ..kg.backends import EmbeddedBackend
 from ..kg.changes import evidence_only
-from ..kg.footprint import Anchor, Reach, anchors, change_reads, reads
+from ..kg.footprint import Anchor, Effect, Reach, anchors, change_effect, reads
 from ..kg.vocab import ExtractorSpec, Value
 from . import pruning
 from .persisted import CompiledCache
@@ -289,21 +289,25 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     delta = made.delta if made is not None else None
     # a rule's last hits stand where its query is the same, the extractors are named alike and the view's
     # change since misses the rule's footprint, or the stars of its patterns (kg/footprint.py), whatever else of
-    # the configuration changed
+    # the configuration changed; and where the rule pruned nothing and the change can only take rows out of its
+    # answer (a prior that yielded to evidence, and more evidence)
     earlier = previous.hits if previous is not None and delta is not None and previous.setup is not None \
         and _extractor_names(previous.setup) == _extractor_names(setup) else {}
     hits: dict[tuple[pruning.SparqlRule, str], dict[int, list[tuple[str, Citation]]]] = {}
     touched = delta.pairs() if delta is not None else None
 
-    def changed(k: int) -> bool:
+    def changed(k: int, last: dict[int, list[tuple[str, Citation]]]) -> bool:
         if not reads(setup.footprints[k], touched):
             return False
         stars = anchors(setup.rules[k].query)
         view = made
-        return delta is None or view is None or stars is None or change_reads(stars, delta, lambda ts: view.holds(kg, ts))
+        if delta is None or view is None or stars is None:
+            return True
+        effect = change_effect(stars, delta, lambda ts: view.holds(kg, ts))
+        return effect is Effect.ANY or (effect is Effect.SHRINKS and bool(last))
 
     due = [k for k, (rule, query) in enumerate(zip(setup.rules, setup.queries, strict=True)) if not isinstance(query, Exception)
-           and ((rule, query) not in earlier or changed(k))]
+           and ((rule, query) not in earlier or changed(k, earlier[(rule, query)]))]
     if made is not None and made.backend is None and due:  # a kept table's detached view (view.py): a rule must run now
         made = evidence_view(kg, admission, summary, reach)
         earlier = {}
