@@ -135,7 +135,8 @@ def read_observations(kg: KnowledgeGraph, only: Collection[str] | None = None) -
 
 def _fold(parts: dict[str, list[list[str]]]) -> list[Observation]:
     """The Observations of the branches' rows: a Measurement of a configuration of an extractor, with its
-    attributes where present (the first row of each, in the order read)."""
+    attributes where present (the first row of each, in the order read). A value is as the CSV results format
+    writes it (``Backend.values``), so an empty sequence label reads as none, like an absent one."""
 
     def first(key: str) -> dict[str, tuple[str, str]]:  # reversed: the first row of a node is written last
         return {m: (a, b) for m, a, b in reversed(parts[key])}

@@ -1,7 +1,7 @@
 """The compiled rule table kept on disk, so that a service restarts without compiling its graph again.
 
-A compile from scratch reads every measurement: under a second on the shipped graph, about 2–4 s at 300k
-statements and 17–29 s at 3M, at every start (``bench/bench_scale.py``). So the table is kept in a file:
+A compile from scratch reads every measurement: under a second on the shipped graph, 1–2 s at 300k
+statements and 6–12 s at 3M, at every start (``bench/bench_scale.py``). So the table is kept in a file:
 
 - **written** when the service stops (``Advisor.close``) and after a compile made from scratch (the first of
   a process: in the service, before it is ready, so that pickling, which holds the interpreter lock, does not
