@@ -171,12 +171,16 @@ def serve_and_measure(store: str, row: Row, args: argparse.Namespace, oxigraph_u
         with httpx.Client(timeout=600) as c:
             row.values["oxigraph_p50"] = p50_ms(args.queries, lambda: c.get(oxigraph_url + "/query", params={"query": AGGREGATE},
                                                                              headers={"accept": "application/sparql-results+json"}))
+        before = httpx.get(base + "/readyz").json()  # what the first start has as it is stopped
     finally:
         stop(svc)
     svc, base, row.values["restart_s"] = start_nfex(env, log, args.ready_timeout)
     try:
-        if not httpx.get(base + "/readyz").json()["rule_table"].get("kept"):
-            row.errors.append("the restart compiled its table instead of reading the kept one")
+        after = httpx.get(base + "/readyz").json()
+        if not after["rule_table"].get("kept"):
+            row.errors.append("the restart compiled its table instead of reading the kept one (before the stop: table "
+                              f"{before['rule_table']['version']}, head {before['graph_version']}; after the restart: table "
+                              f"{after['rule_table']['version']}, head {after['graph_version']})")
     finally:
         stop(svc)
 
