@@ -437,7 +437,9 @@ def parse_report(results_graph: rdflib.Graph, shapes: rdflib.Graph) -> list[Vali
                 severity=str(severity).rsplit("#", 1)[-1] if severity is not None else "Violation",
             )
         )
-    out.sort(key=lambda v: (v.focus_node, v.source_shape, v.message))
+    # every field in the key: results that tie on the first three (one per value of a path) otherwise keep the
+    # results graph's order, which differs between processes (the SHACL worker's report against this one's)
+    out.sort(key=lambda v: (v.focus_node, v.source_shape, v.message, v.path or "", v.value or "", v.severity))
     return out
 
 

@@ -225,3 +225,26 @@ def test_neighbourhoods_kept_across_commits_read_what_the_store_holds(writable, 
         if kept.conforms:
             kg.commit(change, author="pytest")  # validated again from the kept neighbourhoods, which it then carries
             assert kg._neighbourhood.version == kg.version
+
+
+def test_results_that_tie_on_node_shape_and_message_come_in_one_order() -> None:
+    """Two results of one shape on one node with one message (a value each) come out in the same order whatever the
+    results graph's order: the SHACL worker's report equals this process's (a failing case of
+    test_shacl_process.py, where the worker listed a measurement's two sh:class violations the other way round)."""
+    import rdflib
+
+    from nfex_core.kg.validation import parse_report
+    from nfex_core.namespaces import SH
+
+    def results(order: list[str]) -> rdflib.Graph:
+        g = rdflib.Graph()
+        for v in order:
+            r = URIRef(f"urn:r:{v}")
+            for p, o in ((RDF.type, SH.ValidationResult), (SH.focusNode, NFEX.meas_0), (SH.sourceShape, NFEX.MeasurementShape),
+                         (SH.resultPath, SOSA.usedProcedure), (SH.value, NFEX[v]), (SH.resultMessage, Literal("one configuration")),
+                         (SH.resultSeverity, SH.Violation)):
+                g.add((r, p, o))
+        return g
+
+    one, other = parse_report(results(["base_orb", "nothing"]), rdflib.Graph()), parse_report(results(["nothing", "base_orb"]), rdflib.Graph())
+    assert [r.value for r in one] == [r.value for r in other] == [str(NFEX.base_orb), str(NFEX.nothing)]
