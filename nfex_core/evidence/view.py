@@ -164,7 +164,7 @@ class EvidenceView:
         return EvidenceView(version, self.backend, quarantined, summary, incremental=True, delta=delta, reach=reach)
 
     def holds(self, kg: KnowledgeGraph, triples: Set[tuple[URIRef, URIRef, URIRef]]) -> set[tuple[URIRef, URIRef, URIRef]] | None:
-        """Which of ``triples`` (IRIs only) this view holds, for kg/footprint.py ``change_reads``: asked of its store,
+        """Which of ``triples`` (IRIs only) this view holds, for kg/footprint.py ``change_effect``: asked of its store,
         or, detached, of the stored graph less the quarantined plus the summaries — None where the store has moved
         past this view's version (it then cannot tell)."""
         if not triples:

@@ -12,7 +12,7 @@ that counts Measurements under agent = car and motion = fast reads every report.
 pattern, the *star* of its subject: the constant triples ``?m p o`` its basic graph pattern asks of that same
 variable. A solution of a BGP that binds ?m to s uses a triple t = (s, p, o) only if s has the whole star in that
 graph, so a changed triple matters to the BGP only where its subject has the star — after the change for an added
-triple, before it for a removed one (``change_reads``). The answer of a query is a function of its BGPs'
+triple, before it for a removed one (``change_effect``). The answer of a query is a function of its BGPs'
 solutions (SPARQL 1.1 §18.5: the graph is read at BGPs and property paths only), so a change that alters no
 BGP's solutions leaves it as it was. Only a pattern's first step is anchored to its subject: the later steps of
 ``p1/p2``, an inverse or repeated path are not (any triple of their predicate matters). A constant subject or
@@ -263,10 +263,6 @@ def change_effect(anchors: Iterable[Anchor], delta: Delta, holds: Holds) -> Effe
         return Effect.NONE
     return Effect.SHRINKS if moves == {-1} else Effect.ANY
 
-
-def change_reads(anchors: Iterable[Anchor], delta: Delta, holds: Holds) -> bool:
-    """Whether the change ``delta`` can change the answer of a query with ``anchors`` at all (``change_effect``)."""
-    return change_effect(anchors, delta, holds) is not Effect.NONE
 
 
 def pairs(triples: Iterable[Triple]) -> frozenset[tuple[str, str]]:
