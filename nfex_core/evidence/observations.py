@@ -11,9 +11,9 @@ from __future__ import annotations
 import concurrent.futures
 import operator
 import os
-from collections.abc import Collection
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ..kg.history import prefix_block
 
@@ -122,58 +122,70 @@ def read_observations(kg: KnowledgeGraph, only: Collection[str] | None = None) -
     and read again then."""
     if only is not None and not only:
         return []
-    parts: dict[str, list[list[str]]] = {k: [] for k in KEYS}  # branch → its rows (?m ?a ?b)
     if only is not None:
+        parts: dict[str, list[list[str]]] = {k: [] for k in KEYS}  # branch → its rows (?m ?a ?b)
         for m, k, a, b in kg.backend.values(prefix_block() + observation_query(only)):
             parts[k].append([m, a, b])
-    else:
-        with concurrent.futures.ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1),
-                                                   thread_name_prefix="nfex-observations") as pool:
-            parts.update(zip(KEYS, pool.map(lambda k: kg.backend.values(prefix_block() + branch_query(k)), KEYS), strict=True))
-    return _fold(parts)
+        return _fold({k: _column(k, rows) for k, rows in parts.items()})
+    with concurrent.futures.ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1),
+                                               thread_name_prefix="nfex-observations") as pool:
+        # each branch is made the fold's column on the thread that read it, beside the queries still running
+        return _fold(dict(zip(KEYS, pool.map(lambda k: _column(k, kg.backend.values(prefix_block() + branch_query(k))), KEYS),
+                              strict=True)))
 
 
-def _fold(parts: dict[str, list[list[str]]]) -> list[Observation]:
-    """The Observations of the branches' rows: a Measurement of a configuration of an extractor, with its
-    attributes where present (the first row of each, in the order read). A value is as the CSV results format
-    writes it (``Backend.values``), so an empty sequence label reads as none, like an absent one."""
+Column = dict[str, Any] | list[str]
 
-    def first(key: str) -> dict[str, tuple[str, str]]:  # reversed: the first row of a node is written last
-        return {m: (a, b) for m, a, b in reversed(parts[key])}
 
-    extractor = {c: a for c, (a, _) in first("cfg").items()}  # configuration → its extractor's token
-    tokens: dict[str, set[tuple[str, str]]] = {}  # condition value → (dimension, value) tokens
-    for value, dimension, token in parts["value"]:
-        tokens.setdefault(value, set()).add((dimension, token))
-    procedures: dict[str, list[str]] = {}
-    for m, a, _ in parts["proc"]:
-        procedures.setdefault(m, []).append(a)
-    within: dict[str, list[str]] = {}  # Measurement → condition values
-    for m, a, _ in parts["cond"]:
-        within.setdefault(m, []).append(a)
-    ate, ms, size, failed, lost, frames, seq, run, reporter, accepted = (first(k) for k in (
+def _column(key: str, rows: list[list[str]]) -> Column:
+    """Branch ``key``'s rows as the fold reads them: ``type``, the Measurements in the order read, once each;
+    ``proc`` and ``cond``, a node's values in order; ``value``, a condition value's (dimension, value) tokens;
+    any other, a node's first value (its first row; reversed, the first row of a node is written last), converted
+    to the field's type. A value is as the CSV results format writes it (``Backend.values``), so an empty sequence
+    label reads as none, like an absent one."""
+    if key == "type":
+        return list(dict.fromkeys(r[0] for r in rows))
+    if key in ("proc", "cond"):
+        many: dict[str, list[str]] = {}
+        for m, a, _ in rows:
+            many.setdefault(m, []).append(a)
+        return many
+    if key == "value":
+        tokens: dict[str, set[tuple[str, str]]] = {}
+        for value, dimension, token in rows:
+            tokens.setdefault(value, set()).add((dimension, token))
+        return tokens
+    if key == "size":
+        return {m: (_int(a), _int(b)) for m, a, b in reversed(rows)}
+    if key == "seq":
+        return {m: (a, b or None) for m, a, b in reversed(rows)}
+    convert = _CONVERT.get(key)
+    if convert is None:
+        return {m: a for m, a, _ in reversed(rows)}
+    return {m: convert(a) for m, a, _ in reversed(rows)}
+
+
+def _fold(columns: dict[str, Any]) -> list[Observation]:
+    """The Observations of the branches' columns (``_column``): a Measurement of a configuration of an extractor,
+    with its attributes where present."""
+    extractor: dict[str, str] = columns["cfg"]  # configuration → its extractor's token
+    tokens: dict[str, set[tuple[str, str]]] = columns["value"]
+    procedures: dict[str, list[str]] = columns["proc"]
+    within: dict[str, list[str]] = columns["cond"]  # Measurement → condition values
+    ate, ms, size, failed, lost, frames, seq, run, reporter, accepted = (columns[k] for k in (
         "ate", "ms", "size", "failed", "lost", "frames", "seq", "run", "reporter", "accepted"))
     out = []
-    for m in dict.fromkeys(r[0] for r in parts["type"]):  # in the order read, once each
+    for m in columns["type"]:
         cfg = next((c for c in procedures.get(m, ()) if c in extractor), None)
         if cfg is None:
             continue
         wh, sq = size.get(m), seq.get(m)
         out.append(Observation(
-            iri=m, extractor=extractor[cfg], configuration=cfg,
-            conditions=frozenset(t for c in within.get(m, ()) for t in tokens.get(c, ())),
-            ate=_float(_a(ate, m)), extraction_ms=_float(_a(ms, m)),
-            width=_int(wh[0]) if wh else None, height=_int(wh[1]) if wh else None,
-            failed=_bool(_a(failed, m)), lost=_int(_a(lost, m)), frames=_int(_a(frames, m)),
-            sequence=sq[0] if sq else None, sequence_label=(sq[1] or None) if sq else None,
-            run=_a(run, m), reporter=_a(reporter, m), accepted_by=_a(accepted, m),
+            m, extractor[cfg], cfg, frozenset(t for c in within.get(m, ()) for t in tokens.get(c, ())),
+            ate.get(m), ms.get(m), wh[0] if wh else None, wh[1] if wh else None, failed.get(m, False), lost.get(m),
+            frames.get(m), sq[0] if sq else None, sq[1] if sq else None, run.get(m), reporter.get(m), accepted.get(m),
         ))
     return out
-
-
-def _a(attribute: dict[str, tuple[str, str]], m: str) -> str | None:
-    found = attribute.get(m)
-    return found[0] if found is not None else None
 
 
 def _float(lex: str | None) -> float | None:
@@ -201,6 +213,9 @@ def _bool(lex: str | None) -> bool:
         return float(word) != 0
     except ValueError:
         return bool(word)
+
+
+_CONVERT: dict[str, Callable[[str], object]] = {"ate": _float, "ms": _float, "failed": _bool, "lost": _int, "frames": _int}
 
 
 def restricted(query: str, variable: str, iris: Collection[str]) -> str:
