@@ -56,3 +56,32 @@ def wait_ok(url: str, proc: subprocess.Popen[bytes], timeout: float = 60.0) -> N
             pass
         time.sleep(0.1)
     raise SystemExit(f"{url} did not answer 200 within {timeout} s")
+
+
+def cpu_seconds(pid: int) -> float | None:
+    """The CPU time (user + system) process ``pid`` has used so far, from /proc; None where that cannot be read."""
+    import os
+
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()  # after the command name, which may hold spaces
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")  # utime, stime (fields 14 and 15)
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+def settle(pid: int, idle: float = 0.05, window: float = 1.0, timeout: float = 120.0) -> tuple[float, float] | None:
+    """Wait until process ``pid`` uses less than ``idle`` of a core over ``window`` seconds (a database server's
+    start-up work, e.g. compactions after a bulk load, done): the seconds waited and the CPU seconds it used
+    meanwhile; None where its CPU time cannot be read (not Linux) and nothing was waited for."""
+    first = last = cpu_seconds(pid)
+    if first is None:
+        return None
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        time.sleep(window)
+        now = cpu_seconds(pid)
+        if now is None or now - last < idle * window:
+            break
+        last = now
+    return time.monotonic() - t0, (last if now is None else now) - first
