@@ -58,30 +58,49 @@ def wait_ok(url: str, proc: subprocess.Popen[bytes], timeout: float = 60.0) -> N
     raise SystemExit(f"{url} did not answer 200 within {timeout} s")
 
 
-def cpu_seconds(pid: int) -> float | None:
-    """The CPU time (user + system) process ``pid`` has used so far, from /proc; None where that cannot be read."""
+def cpu_seconds(pid: int, thread: str | None = None) -> float | None:
+    """The CPU time (user + system) process ``pid`` has used so far, from /proc; ``thread``: of its threads of that
+    name only (e.g. RocksDB's compaction threads, ``rocksdb:low``). None where that cannot be read."""
     import os
 
-    try:
-        with open(f"/proc/{pid}/stat") as f:
+    def used(stat: str) -> float:
+        with open(stat) as f:
             fields = f.read().rsplit(")", 1)[1].split()  # after the command name, which may hold spaces
         return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")  # utime, stime (fields 14 and 15)
+
+    try:
+        if thread is None:
+            return used(f"/proc/{pid}/stat")
+        total = 0.0
+        for task in os.listdir(f"/proc/{pid}/task"):
+            try:
+                with open(f"/proc/{pid}/task/{task}/comm") as f:
+                    if f.read().strip() == thread:
+                        total += used(f"/proc/{pid}/task/{task}/stat")
+            except OSError:  # the thread ended meanwhile
+                pass
+        return total
     except (OSError, ValueError, IndexError):
         return None
 
 
-def settle(pid: int, idle: float = 0.05, window: float = 1.0, timeout: float = 120.0) -> tuple[float, float] | None:
-    """Wait until process ``pid`` uses less than ``idle`` of a core over ``window`` seconds (a database server's
-    start-up work, e.g. compactions after a bulk load, done): the seconds waited and the CPU seconds it used
-    meanwhile; None where its CPU time cannot be read (not Linux) and nothing was waited for."""
-    first = last = cpu_seconds(pid)
+def settle(pid: int, idle: float = 0.05, window: float = 1.0, timeout: float = 600.0,
+           thread: str | None = None) -> tuple[float, float, float] | None:
+    """Wait until process ``pid`` (its threads named ``thread``) uses less than ``idle`` of a core over ``window``
+    seconds (a database's start-up or compaction work done): the seconds until the end of the last window with
+    work (0 when the first had none: the time it worked, to within a window), the seconds waited in all, and the
+    CPU seconds used meanwhile; None where its CPU time cannot be read (not Linux) and nothing was waited for."""
+    first = cpu_seconds(pid, thread)
     if first is None:
         return None
+    last = first
     t0 = time.monotonic()
+    busy = 0.0
+    now: float | None = first
     while time.monotonic() - t0 < timeout:
         time.sleep(window)
-        now = cpu_seconds(pid)
+        now = cpu_seconds(pid, thread)
         if now is None or now - last < idle * window:
             break
-        last = now
-    return time.monotonic() - t0, (last if now is None else now) - first
+        last, busy = now, time.monotonic() - t0
+    return busy, time.monotonic() - t0, (last if now is None else now) - first

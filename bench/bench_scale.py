@@ -12,7 +12,8 @@ HTTP write of 3M broke the server's connection) by ``oxigraph load`` of the embe
 same data, its version history included) before the server starts. Then, per store, `nfex serve` (one uvicorn
 worker, symbolic advisor, reporter tokens, its own NFEX_COMPILED_CACHE) is started and measured:
 
-- seed: the load_validated write of the N statements (remote, bulk: the ``oxigraph load``);
+- seed: the load_validated write of the N statements and the compaction of it (remote, bulk: the ``oxigraph load``,
+  and the server's work on the loaded store once it opens it);
 - cold start: from starting the process to ``/readyz`` 200 (import, open, first compile from scratch);
 - restart: the same for a second start after the first stopped, which reads the rule table the first kept
   (nfex_core/rules/persisted.py);
@@ -24,9 +25,12 @@ worker, symbolic advisor, reporter tokens, its own NFEX_COMPILED_CACHE) is start
 - a SPARQL aggregate (windows and mean ATE per extractor) through nFEX's ``/sparql``, p50, against the same
   query sent straight to `oxigraph serve` holding the same data (the baseline of both rows).
 
-Before any start is timed, the seeds' writes are synced to disk and `oxigraph serve` is left to finish its own
-start-up work (compactions of a freshly bulk-loaded store: ~4 s of CPU at 3M statements), which on 2 cores
-would otherwise run beside the measured start.
+A seed includes the storage's compaction of what it wrote, which would otherwise run beside the first start on 2
+cores: for the embedded store, RocksDB compacts only once a later update schedules it (the first `nfex serve`
+as it opens: ~6 s of CPU at 3M statements in a probe), so ``seed_store`` sends an update that writes nothing and
+waits until its compaction threads idle; `oxigraph serve` compacts a bulk-loaded store as it opens it (~5 s of CPU
+at 3M), and the seconds until it idles are added to the bulk seed. The seeds' writes are synced to disk before any
+start is timed.
 
 The plot (--plot) draws the time columns over N, log-log, one line per store.
 """
@@ -95,6 +99,7 @@ def seed_store(location: str, lines: list[str], settings: Settings) -> float:
     """Write ``lines`` into the empty store at ``location`` as version 1; seconds taken. A remote store gets a
     client without the default 30 s limit per request: moving 300k staged statements in is one long update."""
     t = time.perf_counter()
+    idle_tail = 0.0
     settings = dataclasses.replace(settings, store=location)
     if location.startswith("http"):
         kg = KnowledgeGraph(RemoteBackend(location, timeout_s=3600), settings)
@@ -104,11 +109,20 @@ def seed_store(location: str, lines: list[str], settings: Settings) -> float:
     flush = getattr(kg.backend, "flush", None)
     if flush is not None:
         flush()
+        # RocksDB compacts what the write left only once a later update schedules it: without this, the first
+        # process to open the store and write (``nfex serve``, as it opens) pays it — at 3M statements ~6 s of CPU
+        # beside its first compile, in a probe. Made part of the seed here: an update that writes nothing, then
+        # waiting until this process's compaction threads idle.
+        kg.backend.update("INSERT { <urn:nfex:bench> <urn:nfex:bench> <urn:nfex:bench> } WHERE { FILTER (false) }")
+        settled = settle(os.getpid(), window=0.5, thread="rocksdb:low")
+        if settled is not None:
+            print(f"  embedded: RocksDB compacted the seed in {settled[0]:.1f} s ({settled[2]:.1f} s of CPU)", flush=True)
+            idle_tail = settled[1] - settled[0]  # the window that found it idle is not the seed's
     kg.close()
-    return time.perf_counter() - t
+    return time.perf_counter() - t - idle_tail
 
 
-def start_oxigraph(folder: Path) -> tuple[subprocess.Popen[bytes], str]:
+def start_oxigraph(folder: Path) -> tuple[subprocess.Popen[bytes], str, float]:
     exe = shutil.which("oxigraph") or str(Path(sys.executable).parent / "oxigraph")
     port = free_port()
     proc = subprocess.Popen([exe, "serve", "--location", str(folder), "--bind", f"127.0.0.1:{port}"],
@@ -117,10 +131,16 @@ def start_oxigraph(folder: Path) -> tuple[subprocess.Popen[bytes], str]:
     wait_ok(url + "/query?query=ASK%7B%7D", proc, 60)
     # it answers while it still works on a freshly loaded store (at 3M statements ~4 s of CPU in its first
     # seconds, in a probe): waited out, so that it does not run beside the starts measured next (2 cores)
+    return proc, url, _settled(proc)
+
+
+def _settled(proc: subprocess.Popen[bytes]) -> float:
+    """Wait until `oxigraph serve` idles (module docstring); the seconds it worked."""
     settled = settle(proc.pid)
-    if settled is not None:
-        print(f"  oxigraph serve: idle {settled[0]:.1f} s after answering ({settled[1]:.1f} s of CPU meanwhile)", flush=True)
-    return proc, url
+    if settled is None:
+        return 0.0
+    print(f"  oxigraph serve: idle {settled[0]:.1f} s after answering or seeding ({settled[2]:.1f} s of CPU meanwhile)", flush=True)
+    return settled[0]
 
 
 def p50_ms(n: int, call: Callable[[], httpx.Response]) -> float:
@@ -221,10 +241,12 @@ def run_size(size: int, args: argparse.Namespace, settings: Settings, work: Path
     embedded_seed = seed_store(str(embedded), lines, settings) if bulk or "embedded" in args.modes else None
     remote_seed = bulk_load(embedded, work / f"oxigraph-{size}") if bulk else None
     os.sync()  # the seeds' writes on disk before a start is timed (the kernel's write-back would run beside it)
-    ox_proc, ox_url = start_oxigraph(work / f"oxigraph-{size}")
+    ox_proc, ox_url, settling = start_oxigraph(work / f"oxigraph-{size}")
     try:
+        if remote_seed is not None:
+            remote_seed += settling  # what the server does to the loaded store once it opens it: part of the bulk seed
         if remote_seed is None:
-            remote_seed = seed_store(ox_url, lines, settings)
+            remote_seed = seed_store(ox_url, lines, settings) + _settled(ox_proc)
         for mode in args.modes:
             row = Row(size, mode if mode == "embedded" or not bulk else "remote (bulk-loaded)", len(lines))
             store = ox_url if mode == "remote" else str(embedded)
@@ -290,10 +312,10 @@ def main() -> None:
     if not set(args.modes) <= {"embedded", "remote"}:
         ap.error(f"--modes: embedded and/or remote, got {args.modes}")
     if args.replot is not None:
-        rows = [Row(**r) for path in args.replot for r in json.loads(path.read_text())]
-        print(table(sorted(rows, key=lambda r: (r.triples, r.mode))))
+        replotted = [Row(**r) for path in args.replot for r in json.loads(path.read_text())]
+        print(table(sorted(replotted, key=lambda r: (r.triples, r.mode))))
         if args.plot is not None:
-            plot(rows, args.plot)
+            plot(replotted, args.plot)
         return
     settings = dataclasses.replace(Settings.from_env(), home=ROOT)
     work = Path(tempfile.mkdtemp(prefix="nfex-bench-scale-"))
