@@ -463,15 +463,13 @@ class RuleEngine:
     """The compiled table for the graph's current version, rebuilt when a commit moves the version; each
     rebuild carries the last table's observations forward (compile_table's ``previous``). With a ``cache``
     (persisted.py), the first table comes from the one kept on disk where it is this store's, and a table
-    compiled from scratch is kept there for the next start: written on a thread of its own, so that the table
-    answers while it is written (at 3M statements the write takes ~1 s, which a service's start waited for)."""
+    compiled from scratch is kept there for the next start."""
 
     def __init__(self, kg: KnowledgeGraph, cache: CompiledCache | None = None) -> None:
         self.kg = kg
         self.cache = cache
         self._last: RuleTable | None = None
         self._read_cache = cache is not None
-        self._keeping: threading.Thread | None = None
 
     def table(self) -> RuleTable:
         if self._read_cache and self.cache is not None:
@@ -482,21 +480,12 @@ class RuleEngine:
                 self.kg.remember("rule-table", loaded.version, loaded)  # it answers while it is the head's
         scratch = self._last is None
         table = self.kg.cached("rule-table", lambda: compile_table(self.kg, self._last))
-        if scratch and self.cache is not None and self._keeping is None:  # the first compile of a process
-            self._keeping = threading.Thread(target=self.cache.save, args=(self.kg, table), name="nfex-keep-table", daemon=True)
-            self._keeping.start()
+        if scratch and self.cache is not None:  # the first compile of a process: in the service, before it is ready
+            self.cache.save(self.kg, table)
         self._last = table
         return table
 
-    def kept(self, timeout: float | None = None) -> bool:
-        """Wait for the write of the first compile's table (if any); False if it is still being written."""
-        if self._keeping is not None:
-            self._keeping.join(timeout)
-            return not self._keeping.is_alive()
-        return True
-
     def save(self) -> None:
-        """Keep the last table for the next start (at shutdown), after the first compile's write."""
-        self.kept()
+        """Keep the last table for the next start (at shutdown)."""
         if self.cache is not None and self._last is not None:
             self.cache.save(self.kg, self._last)

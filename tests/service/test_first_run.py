@@ -48,9 +48,6 @@ def test_serve_starts_on_an_empty_home(tmp_path: Path, record_property: pytest.R
         assert httpx.get(url).json()["store"] == str(home / ".local" / "share" / "nfex" / "store")
         assert (home / ".local" / "share" / "nfex" / "store").is_dir()
         compiled = home / ".cache" / "nfex" / "compiled"
-        written = time.monotonic() + 30  # written on a thread once the table answers (rules/engine.py RuleEngine)
-        while not list(compiled.glob("*.pickle")) and time.monotonic() < written:
-            time.sleep(0.1)
         assert len(list(compiled.glob("*.pickle"))) == 1 and compiled.stat().st_mode & 0o777 == 0o700
     finally:
         stop_process(proc)

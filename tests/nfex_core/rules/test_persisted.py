@@ -6,7 +6,6 @@ from __future__ import annotations
 import logging
 import random
 import shutil
-import threading
 from pathlib import Path
 
 import pytest
@@ -17,7 +16,7 @@ from nfex_core.feedback import ReportWriter
 from nfex_core.kg import KnowledgeGraph
 from nfex_core.knowledge import open_graph
 from nfex_core.rules import persisted
-from nfex_core.rules.engine import RuleEngine, RuleTable, backend_citations, compile_table
+from nfex_core.rules.engine import RuleEngine, backend_citations, compile_table
 from nfex_core.rules.persisted import CompiledCache, store_key
 
 from ..evidence.test_index import OPS, _apply
@@ -42,28 +41,6 @@ def test_a_kept_table_answers_as_a_fresh_compile(shipped_kg: KnowledgeGraph, tmp
     kept = again.table()
     assert kept.kept_in is not None and compiled.kept_in is None
     _same(kept, compile_table(shipped_kg))
-
-
-def test_the_first_table_answers_while_it_is_written(shipped_kg: KnowledgeGraph, tmp_path: Path) -> None:
-    """The write of the first compile's table does not hold up ``table()``; ``save`` at shutdown waits for it."""
-    release, started = threading.Event(), threading.Event()
-
-    class Slow(CompiledCache):
-        def save(self, kg: KnowledgeGraph, table: RuleTable) -> None:
-            started.set()
-            release.wait(30)
-            super().save(kg, table)
-
-    key = store_key(shipped_kg)
-    assert key is not None
-    engine = RuleEngine(shipped_kg, Slow(tmp_path, key))
-    table = engine.table()  # returns while the write waits
-    assert started.wait(30) and not engine.kept(timeout=0.05) and not list(tmp_path.glob("*.pickle"))
-    assert engine.table() is table
-    release.set()
-    engine.save()
-    assert engine.kept(timeout=0) and list(tmp_path.glob("*.pickle"))
-    assert _engine(shipped_kg, tmp_path).table().kept_in is not None
 
 
 @settings(max_examples=5, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
