@@ -4,7 +4,8 @@ against the same branches as one query read term by term (what stop 34 shipped),
     python bench/bench_observations.py [--size 300000] [--pairs 7] [--store FOLDER]
 
 The store is the shipped seed plus synthetic Measurements up to --size statements (bench_scale's graph), seeded
-into a temporary folder, or an existing store folder (--store). Both reads fold their rows with the same code and
+into a temporary folder, or an existing store folder (--store). Both reads fold their rows with the same code (the
+threaded read makes each branch's column on its thread, the baseline after its query) and
 must give the same Observations. Printed: each pair's times and ratio, the medians, and how many pairs the
 threaded read won (a sign test: with 7 pairs all won, p = 1/128 under "no difference").
 """
@@ -24,7 +25,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_scale import graph_lines, seed_store  # noqa: E402
 
 from nfex_core.config import Settings  # noqa: E402
-from nfex_core.evidence.observations import KEYS, Observation, _fold, observation_query, read_observations  # noqa: E402
+from nfex_core.evidence.observations import (  # noqa: E402
+    KEYS,
+    Observation,
+    _column,
+    _fold,
+    observation_query,
+    read_observations,
+)
 from nfex_core.kg import KnowledgeGraph  # noqa: E402
 from nfex_core.kg.backends import EmbeddedBackend  # noqa: E402
 from nfex_core.kg.history import prefix_block  # noqa: E402
@@ -37,7 +45,7 @@ def one_query(kg: KnowledgeGraph) -> list[Observation]:
     for sol in kg.backend.solutions(prefix_block() + observation_query()):
         a, b = sol["a"], sol["b"]
         parts[sol["k"].value].append([sol["m"].value, a.value if a is not None else "", b.value if b is not None else ""])
-    return _fold(parts)
+    return _fold({k: _column(k, rows) for k, rows in parts.items()})
 
 
 def measure(kg: KnowledgeGraph, pairs: int) -> int:
