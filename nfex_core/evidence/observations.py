@@ -181,9 +181,12 @@ def _fold(columns: dict[str, Any]) -> list[Observation]:
             continue
         wh, sq = size.get(m), seq.get(m)
         out.append(Observation(
-            m, extractor[cfg], cfg, frozenset(t for c in within.get(m, ()) for t in tokens.get(c, ())),
-            ate.get(m), ms.get(m), wh[0] if wh else None, wh[1] if wh else None, failed.get(m, False), lost.get(m),
-            frames.get(m), sq[0] if sq else None, sq[1] if sq else None, run.get(m), reporter.get(m), accepted.get(m),
+            iri=m, extractor=extractor[cfg], configuration=cfg,
+            conditions=frozenset(t for c in within.get(m, ()) for t in tokens.get(c, ())),
+            ate=ate.get(m), extraction_ms=ms.get(m), width=wh[0] if wh else None, height=wh[1] if wh else None,
+            failed=failed.get(m, False), lost=lost.get(m), frames=frames.get(m),
+            sequence=sq[0] if sq else None, sequence_label=sq[1] if sq else None,
+            run=run.get(m), reporter=reporter.get(m), accepted_by=accepted.get(m),
         ))
     return out
 
