@@ -105,7 +105,7 @@ def seed_store(location: str, lines: list[str], settings: Settings) -> float:
         kg = KnowledgeGraph(RemoteBackend(location, timeout_s=3600), settings)
     else:
         kg = KnowledgeGraph.open(location, settings=settings)
-    kg.load_validated(ChangeText(lines), author="bench_scale", message=f"{len(lines)} statements")
+    kg.load_validated(ChangeText(lines, ntriples=True), author="bench_scale", message=f"{len(lines)} statements")
     flush = getattr(kg.backend, "flush", None)
     if flush is not None:
         flush()

@@ -50,10 +50,11 @@ class SeedContent:
     digest: str
     cached: bool = False  # read from the cache rather than computed
     computed: frozenset[Triple] | None = None  # the triples, when computed here
+    ntriples: bool = True  # the lines are N-Triples (``triple_nt``), not ``triple_n3`` (the uncached fallback)
 
     def text(self) -> ChangeText:
         """What ``KnowledgeGraph.load_validated`` writes."""
-        return ChangeText(self.lines)
+        return ChangeText(self.lines, ntriples=self.ntriples)
 
     def triples(self) -> frozenset[Triple]:
         return self.computed if self.computed is not None else parse_lines(self.lines)
@@ -119,7 +120,7 @@ def seed_content(settings: Settings, compute: Callable[[Settings], Iterable[Trip
     lines = tuple(sorted(triple_nt(t) for t in triples))
     if not round_trips({term for t in triples for term in t}):  # a term N-Triples cannot carry as rdflib holds it: write it as commit does, and cache nothing
         log.warning("the seed does not read back from N-Triples unchanged; it is not cached")
-        return SeedContent(tuple(sorted(triple_n3(t) for t in triples)), key, computed=triples)
+        return SeedContent(tuple(sorted(triple_n3(t) for t in triples)), key, computed=triples, ntriples=False)
     _store(path, lines)
     return SeedContent(lines, key, computed=triples)
 

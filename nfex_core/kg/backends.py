@@ -280,6 +280,11 @@ class EmbeddedBackend(Backend):
         what-if previews, nfex_core/impact.py)."""
         self._store.load(data, format=GRAPH_FORMATS[media])
 
+    def bulk_load(self, data: bytes) -> None:
+        """Load N-Quads with Oxigraph's bulk loader: faster than ``load``, and not atomic (kg/history.py
+        ``bulk_write_first`` brackets it)."""
+        self._store.bulk_load(data, format=ox.RdfFormat.N_QUADS)
+
     def flush(self) -> None:
         self._store.flush()
 

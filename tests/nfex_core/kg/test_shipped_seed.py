@@ -18,8 +18,9 @@ from nfex_core.kg import ChangeSet, KnowledgeGraph
 from nfex_core.kg.history import ChangeText, version_iri
 from nfex_core.kg.store import META
 from nfex_core.kg.terms import n3
-from nfex_core.knowledge import SEED_AUTHOR, SEED_MESSAGE, open_graph, seed, seed_triples
+from nfex_core.knowledge import SEED_AUTHOR, SEED_MESSAGE, open_graph, seed, seed_graph, seed_triples
 from nfex_core.namespaces import NFEX
+from nfex_core.seed_content import seed_content
 
 
 def test_the_shipped_seed_conforms(shipped_kg: KnowledgeGraph) -> None:
@@ -59,3 +60,17 @@ def test_only_an_empty_store_is_loaded_without_validation(kg: KnowledgeGraph, tm
         other.load_validated(ChangeText(["<urn:a> <urn:b> <urn:c> ."]), author="x")
     result = seed(other)
     assert result.version == 1 and result.report is not None and result.report.conforms
+
+
+def test_a_bulk_write_that_fails_leaves_the_store_empty(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The loader stops partway (here: the quads' second half does not parse): what it wrote is taken out,
+    the error is raised, and the store is at version 0 with nothing in it but the head."""
+    kg = KnowledgeGraph.open(str(tmp_path / "store"))
+    lines = list(seed_content(kg.settings, seed_graph).lines)
+    broken = [*lines[:1000], "<urn:a> <urn:b> not N-Triples .", *lines[1000:]]
+    with pytest.raises(SyntaxError):
+        kg.load_validated(ChangeText(broken, ntriples=True), author="x")
+    assert kg.version == 0 and not kg.ask("ASK { ?s ?p ?o }")
+    assert not kg.ask("ASK { GRAPH ?g { ?s ?p ?o } FILTER (?g != <urn:nfex:meta>) }")
+    assert len(kg.select("SELECT * WHERE { GRAPH <urn:nfex:meta> { ?s ?p ?o } }").rows) == 1  # the head
+    assert seed(kg).version == 1
