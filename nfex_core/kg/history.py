@@ -25,7 +25,7 @@ from ..namespaces import NFEX, PREFIXES
 from .backends import Backend, EmbeddedBackend
 from .changes import ChangeSet
 from .claims import META, settle_update
-from .terms import Triple, n3, py, triple_n3
+from .terms import Triple, n3, nt, py, triple_n3
 
 
 def prefix_block() -> str:
@@ -195,7 +195,7 @@ def bulk_write_first(backend: EmbeddedBackend, text: ChangeText, author: str, me
     knowledge = f" <{backend.graph}> .\n" if backend.graph else " .\n"
     added = f" {n3(added_graph(1))} .\n"
     body = [line.rstrip().removesuffix(".").rstrip() for line in text.added]
-    node = [f"{n3(s)} {n3(p)} {n3(o)}" for s, p, o in version_node(text, 1, author, message, commit_id)]
+    node = [f"{nt(s)} {nt(p)} {nt(o)}" for s, p, o in version_node(text, 1, author, message, commit_id)]  # one line each
     data = "".join([*(b + knowledge for b in body), *(b + added for b in body), *(n + f" {n3(META)} .\n" for n in node)])
     backend.bulk_load(data.encode("utf-8"))
     backend.update(f"{prefix_block()}DELETE DATA {{ GRAPH {n3(META)} {{ {n3(HEAD)} nfex:versionNumber 0 . {marker} }} }} ;\n"

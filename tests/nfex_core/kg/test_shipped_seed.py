@@ -62,7 +62,7 @@ def test_only_an_empty_store_is_loaded_without_validation(kg: KnowledgeGraph, tm
     assert result.version == 1 and result.report is not None and result.report.conforms
 
 
-def test_a_bulk_write_that_fails_leaves_the_store_empty(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_bulk_write_that_fails_leaves_the_store_empty(tmp_path: Path) -> None:
     """The loader stops partway (here: the quads' second half does not parse): what it wrote is taken out,
     the error is raised, and the store is at version 0 with nothing in it but the head."""
     kg = KnowledgeGraph.open(str(tmp_path / "store"))
@@ -74,3 +74,14 @@ def test_a_bulk_write_that_fails_leaves_the_store_empty(tmp_path: Path, monkeypa
     assert not kg.ask("ASK { GRAPH ?g { ?s ?p ?o } FILTER (?g != <urn:nfex:meta>) }")
     assert len(kg.select("SELECT * WHERE { GRAPH <urn:nfex:meta> { ?s ?p ?o } }").rows) == 1  # the head
     assert seed(kg).version == 1
+
+
+def test_a_bulk_write_keeps_a_message_of_several_lines(tmp_path: Path) -> None:
+    """The version node goes into the N-Quads the bulk loader reads: a message with a line break and quotes is
+    written on one line, and read back as it was given."""
+    kg = KnowledgeGraph.open(str(tmp_path / "store"))
+    message = 'first line\nsecond "quoted" line'
+    kg.load_validated(ChangeText(["<urn:nfex:test:a> <urn:nfex:test:b> <urn:nfex:test:c> ."], ntriples=True),
+                      author="tester\ttab", message=message)
+    [version] = kg.versions()
+    assert (version.number, version.author, version.message) == (1, "tester\ttab", message)
