@@ -129,8 +129,8 @@ def start_oxigraph(folder: Path) -> tuple[subprocess.Popen[bytes], str, float]:
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     url = f"http://127.0.0.1:{port}"
     wait_ok(url + "/query?query=ASK%7B%7D", proc, 60)
-    # it answers while it still works on a freshly loaded store (at 3M statements ~4 s of CPU in its first
-    # seconds, in a probe): waited out, so that it does not run beside the starts measured next (2 cores)
+    # it answers while it still works on a freshly loaded store (module docstring): waited out, so that it does
+    # not run beside the starts measured next (2 cores)
     return proc, url, _settled(proc)
 
 
