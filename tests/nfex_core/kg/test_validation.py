@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from rdflib import Literal, URIRef
 from rdflib.namespace import RDF, XSD
@@ -248,3 +248,50 @@ def test_results_that_tie_on_node_shape_and_message_come_in_one_order() -> None:
 
     one, other = parse_report(results(["base_orb", "nothing"]), rdflib.Graph()), parse_report(results(["nothing", "base_orb"]), rdflib.Graph())
     assert [r.value for r in one] == [r.value for r in other] == [str(NFEX.base_orb), str(NFEX.nothing)]
+
+
+TARGETS = """@prefix sh: <http://www.w3.org/ns/shacl#> . @prefix rdfs: <http://www.w3.org/2000/01/rdf-schema#> .
+@prefix ex: <https://example.org/> .
+ex:ByClass a sh:NodeShape ; sh:targetClass ex:A .
+ex:ByNode a sh:NodeShape ; sh:targetNode ex:n1, ex:absent .
+ex:BySubject a sh:NodeShape ; sh:targetSubjectsOf ex:p .
+ex:ByObject a sh:NodeShape ; sh:targetObjectsOf ex:q .
+ex:Implicit a sh:NodeShape, rdfs:Class .
+ex:Several a sh:NodeShape ; sh:targetClass ex:B ; sh:targetObjectsOf ex:p ; sh:targetNode ex:n3 .
+ex:Sparql a sh:NodeShape ; sh:target [ a sh:SPARQLTarget ; sh:select "SELECT ?this WHERE { ?this <https://example.org/q> ?x }" ] .
+"""
+TARGET_NODES = [f"n{i}" for i in range(5)] + ["absent", "A", "B", "C", "Implicit"]
+
+
+@settings(max_examples=60, deadline=None)
+@example(triples=[("n1", "type", "C"), ("C", "subClassOf", "B"), ("B", "subClassOf", "A"), ("n2", "type", "Implicit")],
+         focus={"n1", "n2"})  # a subclass chain, and a shape that is a class
+@given(triples=st.lists(st.tuples(st.sampled_from(TARGET_NODES), st.sampled_from(["type", "subClassOf", "p", "q", "r"]),
+                                  st.sampled_from(TARGET_NODES)), max_size=14),
+       focus=st.sets(st.sampled_from(TARGET_NODES), max_size=6))
+def test_the_focus_nodes_a_shape_targets_are_pyshacls(triples, focus) -> None:  # type: ignore[no-untyped-def]
+    """``_Targets.among`` (a shape's targets read from the focus nodes' side) lists what pySHACL's own
+    ``focus_nodes`` lists of the focus nodes, for every kind of target: classes through a subclass chain of the
+    data graph, an explicit node the graph lacks, the subjects or objects of a predicate, a shape that is a class;
+    a SHACL-AF target is left to pySHACL (None)."""
+    import rdflib
+    from pyshacl.graph_abstraction import DataGraph
+
+    from nfex_core.kg.validation import _Focus, _ShapesGraph, shapes_in
+
+    ex = rdflib.Namespace("https://example.org/")
+    preds = {"type": RDF.type, "subClassOf": RDFS.subClassOf, "p": ex.p, "q": ex.q, "r": ex.r}
+    g = rdflib.Graph()
+    for s, p, o in triples:
+        g.add((ex[s], preds[p], ex[o]))
+    data = DataGraph.from_rdflib(g)
+    sg = _ShapesGraph(shapes_in(parse_rdf(TARGETS)).graph)
+    nodes = frozenset(ex[n] for n in focus)
+    facts = _Focus(nodes).facts(data)
+    for shape in super(_ShapesGraph, sg).shapes:
+        targets = sg._targets[shape.node]
+        if shape.node == ex.Sparql:
+            assert targets is None
+            continue
+        assert targets is not None
+        assert set(targets.among(facts)) == {f for f in shape.focus_nodes(data) if f in nodes}, shape.node
