@@ -22,6 +22,7 @@ import re
 import threading
 import time
 from abc import ABC, abstractmethod
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
@@ -35,7 +36,7 @@ from rdflib.term import BNode, Literal, Node, URIRef
 from ..config import Settings
 from ..errors import BadInput, Conflict, ParseError, QueryLimitExceeded, StoreUnavailable
 from .protocol import ServerAuth, dataset_params
-from .terms import Triple, from_sparql_json, oxigraph_triples, term_converter
+from .terms import Triple, from_sparql_json, n3, oxigraph_triples, plain, term_converter, to_oxigraph
 
 Row = dict[str, Node]
 DEADLOCK_RETRIES = 8
@@ -131,6 +132,18 @@ class Backend(ABC):
     @abstractmethod
     def triples(self, query: str) -> set[Triple]:
         """A CONSTRUCT's triples as a set, literals normalised (terms.plain)."""
+
+    def present(self, triples: Iterable[Triple]) -> set[Triple]:
+        """Those of ``triples`` the knowledge graph holds, as given (a literal in another lexical form of the same
+        term, ``"x"^^xsd:string`` or ``"1.50"^^xsd:decimal``, comes back as given, not as the store writes it: a
+        change's triples are subtracted from it); one VALUES query per 500."""
+        found: set[Triple] = set()
+        items = list(triples)
+        for i in range(0, len(items), 500):
+            values = " ".join(f"({n3(s)} {n3(p)} {n3(o)})" for s, p, o in items[i : i + 500])
+            res = self.select(f"SELECT ?s ?p ?o WHERE {{ VALUES (?s ?p ?o) {{ {values} }} ?s ?p ?o }}")
+            found.update((r["s"], r["p"], r["o"]) for r in res.rows)
+        return {t for t in items if (t[0], t[1], plain(t[2]) if isinstance(t[2], Literal) else t[2]) in found}
 
     @abstractmethod
     def update(self, update: str) -> None: ...
@@ -242,6 +255,23 @@ class EmbeddedBackend(Backend):
         if not isinstance(res, ox.QueryTriples):
             raise BadInput("expected a CONSTRUCT or DESCRIBE query")
         return set(oxigraph_triples(res))
+
+    def present(self, triples: Iterable[Triple]) -> set[Triple]:
+        """As ``Backend.present``, each triple looked up in Oxigraph's indexes: no query text to write and parse
+        (a report batch's ~260 triples: 2.0 -> 0.8 ms in a probe). A term Oxigraph refuses (an IRI with a space)
+        goes the query's way, which raises what a query raises."""
+        graph = self._dataset.get("default_graph", ox.DefaultGraph())
+        items = list(triples)
+        quads: list[tuple[Triple, ox.Quad]] = []
+        try:
+            for t in items:
+                s, p, o = to_oxigraph(t[0]), to_oxigraph(t[1]), to_oxigraph(t[2])
+                if isinstance(s, ox.NamedNode) and isinstance(p, ox.NamedNode):  # else no store holds it
+                    quads.append((t, ox.Quad(s, p, o, graph)))
+        except ValueError:
+            return super().present(items)
+        store = self._store
+        return {t for t, q in quads if q in store}
 
     def update(self, update: str) -> None:
         try:

@@ -84,17 +84,6 @@ class ChangeSet:
         return g
 
 
-def present(backend: Backend, triples: Iterable[Triple]) -> set[Triple]:
-    """Those of ``triples`` the default graph holds (one VALUES query per 500)."""
-    found: set[Triple] = set()
-    items = list(triples)
-    for i in range(0, len(items), 500):
-        values = " ".join(f"({n3(s)} {n3(p)} {n3(o)})" for s, p, o in items[i : i + 500])
-        res = backend.select(f"SELECT ?s ?p ?o WHERE {{ VALUES (?s ?p ?o) {{ {values} }} ?s ?p ?o }}")
-        found.update((r["s"], r["p"], r["o"]) for r in res.rows)
-    return found
-
-
 # What a sweep or a client's report writes (sweeps/records.py, feedback.py): the Measurement and the nodes
 # around it. Nothing that configures selection — the vocabulary, statements, shapes, rules, settings — has
 # one of these types, and none of its readers reads a node of one (see ``evidence_only``).

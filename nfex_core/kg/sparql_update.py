@@ -24,7 +24,7 @@ import pyoxigraph as ox
 import rdflib
 
 from ..errors import BadInput, ParseError
-from .changes import ChangeSet, present
+from .changes import ChangeSet
 from .sparql_guard import refuse_unsafe_update
 from .terms import from_oxigraph
 from .update_reach import EVERYTHING, reach
@@ -94,5 +94,5 @@ def _diff(scratch: ox.Store, update: str, store: Backend | None) -> ChangeSet:
 
     added = conv(after - before)
     if store is not None and added:
-        added -= present(store, added)
+        added -= store.present(added)
     return ChangeSet(added=added, removed=conv(before - after))

@@ -28,7 +28,7 @@ from ..config import Settings
 from ..errors import BadInput, Conflict, NotFound, PreconditionFailed, StoreUnavailable, ValidationFailed
 from ..namespaces import NFEX, PREFIXES
 from .backends import Backend, EmbeddedBackend, SelectResult, open_backend
-from .changes import ChangeSet, evidence_only, graph_triples, present
+from .changes import ChangeSet, evidence_only, graph_triples
 from .claims import META as CLAIMS_META
 from .claims import Rival, ttl_for
 from .claims import release as release_claim
@@ -269,7 +269,7 @@ class KnowledgeGraph:
 
     # ------------------------------------------------------------------ writing
     def _present(self, triples: Iterable[Triple]) -> set[Triple]:
-        return present(self.backend, triples)
+        return self.backend.present(triples)
 
     def _effective(self, change: ChangeSet) -> ChangeSet:
         """Drop additions already present and removals of absent triples: versions record real changes."""

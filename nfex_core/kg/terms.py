@@ -78,6 +78,19 @@ def from_oxigraph(term: object, *, as_written: bool = False) -> Node:
     raise TypeError(f"unsupported term {term!r}")
 
 
+def to_oxigraph(term: Node) -> ox.NamedNode | ox.Literal:
+    """An rdflib IRI or literal as Oxigraph's, the literal ``plain`` (as ``n3`` writes it); ValueError for a blank
+    node, or a term Oxigraph refuses."""
+    if isinstance(term, URIRef):
+        return ox.NamedNode(term)
+    if isinstance(term, Literal):
+        lit = plain(term)
+        if lit.language:
+            return ox.Literal(str(lit), language=lit.language)
+        return ox.Literal(str(lit), datatype=ox.NamedNode(lit.datatype)) if lit.datatype is not None else ox.Literal(str(lit))
+    raise ValueError(f"blank node {term} cannot be written to the store; skolemise first")
+
+
 _CONVERTED: dict[bool, dict[object, Node]] = {False: {}, True: {}}  # term_converter's memo, per as_written
 CONVERTED_MAX = 100_000  # terms remembered per mode; then the memo starts again
 LONG_LITERAL = 200  # characters: a longer literal (a rule's query, a comment) is converted each time, not kept
