@@ -22,6 +22,7 @@ every report before every commit would pay N validations per batch to save work 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from typing import TYPE_CHECKING, Any
@@ -180,6 +181,10 @@ class ReportWriter:
     def write(self, fb: Feedback) -> Written:
         """Validate and commit ``fb`` (with the reports that arrived with it); raises its own error."""
         return self.batcher.submit(fb)
+
+    def submit(self, fb: Feedback) -> Future[Written]:
+        """``write`` without waiting: the future is done once ``fb``'s batch is committed (or failed)."""
+        return self.batcher.submit_future(fb)
 
     def close(self) -> None:
         self.batcher.close()

@@ -9,7 +9,10 @@ A fleet of clients reporting per window pays it per report; ``Batcher`` lets the
                              else when ``window_s`` has passed since it opened (or at ``max_items``); then
                              ``flush(items)`` ─► each ``submit`` returns its own result (or raises its own)
 
-A caller returns only after ``flush`` returned, i.e. after its batch is committed (durable). One flush runs at
+A caller returns only after ``flush`` returned, i.e. after its batch is committed (durable): ``submit`` waits for it
+on the caller's thread, ``submit_future`` hands back a future instead (the service awaits it on its event loop, so
+a report holds no thread while its batch forms and commits, and a fleet is not capped by a thread pool's size); an
+item whose future was cancelled before its batch was taken is left out of it. One flush runs at
 a time; items that arrive during a flush join the next batch, which opens when the flush ends, so the callers
 that flush just answered can join it too — a fleet's clients each post their next report when the last is
 answered. The items *expected* are those callers plus the items already waiting when it ended: everyone in the
@@ -28,6 +31,7 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable, Sequence
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 from typing import Any, Generic, TypeVar
 
@@ -39,9 +43,7 @@ R = TypeVar("R")
 class _Slot(Generic[T]):
     item: T
     arrived: float = field(default_factory=time.monotonic)
-    done: threading.Event = field(default_factory=threading.Event)
-    result: Any = None
-    error: BaseException | None = None
+    future: Future[Any] = field(default_factory=Future)
 
 
 class Batcher(Generic[T, R]):
@@ -68,6 +70,10 @@ class Batcher(Generic[T, R]):
 
     def submit(self, item: T) -> R:
         """Queue ``item``, wait until its batch is flushed, and return its result (or raise its exception)."""
+        return self.submit_future(item).result()
+
+    def submit_future(self, item: T) -> Future[R]:
+        """Queue ``item``; the future gets its result (or exception) once its batch is flushed."""
         slot: _Slot[T] = _Slot(item)
         with self._cond:
             if self._closed:
@@ -77,10 +83,7 @@ class Batcher(Generic[T, R]):
             if self._worker is None:
                 self._worker = threading.Thread(target=self._run, name=self.name, daemon=True)
                 self._worker.start()
-        slot.done.wait()
-        if slot.error is not None:
-            raise slot.error
-        return slot.result
+        return slot.future
 
     def _take(self) -> list[_Slot[T]]:
         """The next batch (empty when none is queued: the flusher then ends)."""
@@ -100,6 +103,9 @@ class Batcher(Generic[T, R]):
 
     def _run(self) -> None:
         while batch := self._take():
+            batch = [s for s in batch if s.future.set_running_or_notify_cancel()]  # a cancelled item is left out
+            if not batch:
+                continue
             try:
                 results = list(self._flush([s.item for s in batch]))
                 if len(results) != len(batch):
@@ -113,10 +119,9 @@ class Batcher(Generic[T, R]):
             self.items += len(batch)
             for slot, r in zip(batch, results, strict=True):
                 if isinstance(r, BaseException):
-                    slot.error = r
+                    slot.future.set_exception(r)
                 else:
-                    slot.result = r
-                slot.done.set()
+                    slot.future.set_result(r)
 
     def close(self, timeout: float = 30.0) -> None:
         """Refuse new items; the queued ones are still flushed."""

@@ -2,6 +2,7 @@
 token); it steers selections once corroborated by ``nfex:minSources`` reporters or accepted by an editor."""
 from __future__ import annotations
 
+import asyncio
 import re
 from typing import Any
 
@@ -34,7 +35,7 @@ REPORT_ID = re.compile(r"^measurement_[0-9a-f]{32}$")
     response_model=WriteResult,
     responses=PROBLEM_RESPONSES,
 )
-def feedback(body: FeedbackRequest, writer: ReportsDep, sessions: SessionsDep, token: ReporterDep) -> JSONResponse:
+async def feedback(body: FeedbackRequest, writer: ReportsDep, sessions: SessionsDep, token: ReporterDep) -> JSONResponse:
     context = {k: v for k, v in body.context.items() if v is not None}
     client = body.client
     if body.session_id:
@@ -43,7 +44,9 @@ def feedback(body: FeedbackRequest, writer: ReportsDep, sessions: SessionsDep, t
         client = client or session.client
     fb = Feedback(**{**body.model_dump(exclude={"session_id", "context", "client"}), "context": context,
                      "client": client, "session": body.session_id, "reporter": token.name})
-    written = writer.write(fb)  # committed with the reports that arrived with it (nfex_core.feedback.ReportWriter)
+    # committed with the reports that arrived with it (nfex_core.feedback.ReportWriter), awaited on the event loop: a
+    # report holds no thread while its batch forms and commits, so a fleet is not capped by the thread pool's size
+    written = await asyncio.wrap_future(writer.submit(fb))
     return WriteResult.of(written.result, iri=str(written.iri)).response(status=201)
 
 

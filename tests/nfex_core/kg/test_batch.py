@@ -101,6 +101,23 @@ def test_a_batch_is_bounded_by_count() -> None:
     assert max(seen) <= 3 and sum(seen) == 7
 
 
+def test_a_future_gets_its_result_and_a_cancelled_item_is_left_out() -> None:
+    """``submit_future``: no thread waits; the future gets the item's result or exception once its batch is flushed,
+    and an item cancelled before its batch was taken is not flushed (the others of its batch are)."""
+    flush = Held(hold=1, result=lambda i: ValueError(f"bad {i}") if i == 3 else i * 10)
+    batcher: Batcher[int, int] = Batcher(flush, max_items=64, window_s=0.5)
+    first = batcher.submit_future(1)
+    assert flush.started.wait(5)
+    queued = [batcher.submit_future(i) for i in (2, 3, 4)]  # queued during the first flush
+    assert queued[2].cancel()  # 4: its caller went away
+    flush.release_when_queued(batcher, 3)
+    assert first.result(10) == 10 and queued[0].result(10) == 20
+    with pytest.raises(ValueError, match="bad 3"):
+        queued[1].result(10)
+    assert queued[2].cancelled()
+    assert flush.batches == [[1], [2, 3]]
+
+
 def _report(i: int, **fields: object) -> Feedback:
     return Feedback(**{"extractor": "ORB", "context": {"agent": "car"}, "sequence": "batch/test", "reporter": f"r{i % 3}",
                        "window_start": 10 * i, "window_end": 10 * i + 10, "ate_rmse": 0.5 + i / 100, **fields})  # type: ignore[arg-type]
