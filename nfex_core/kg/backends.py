@@ -258,7 +258,7 @@ class EmbeddedBackend(Backend):
 
     def present(self, triples: Iterable[Triple]) -> set[Triple]:
         """As ``Backend.present``, each triple looked up in Oxigraph's indexes: no query text to write and parse
-        (a report batch's ~260 triples: 2.0 -> 0.8 ms in a probe). A term Oxigraph refuses (an IRI with a space)
+        (a report batch's ~110 triples: 2.0 -> 0.8 ms in a probe). A term Oxigraph refuses (an IRI with a space)
         goes the query's way, which raises what a query raises."""
         graph = self._dataset.get("default_graph", ox.DefaultGraph())
         items = list(triples)
