@@ -242,9 +242,7 @@ def read_versions(backend: Backend, limit: int | None = None) -> list[Version]:
 
 
 def read_changes(backend: Backend, number: int) -> ChangeSet:
-    """The change set that version ``number`` committed."""
-    added = backend.construct(f"CONSTRUCT {{ ?s ?p ?o }} WHERE {{ GRAPH {n3(added_graph(number))} {{ ?s ?p ?o }} }}")
-    removed = backend.construct(
-        f"CONSTRUCT {{ ?s ?p ?o }} WHERE {{ GRAPH {n3(removed_graph(number))} {{ ?s ?p ?o }} }}"
-    )
+    """The change set that version ``number`` committed (read as sets of triples: no rdflib Graph is built)."""
+    added = backend.triples(f"CONSTRUCT {{ ?s ?p ?o }} WHERE {{ GRAPH {n3(added_graph(number))} {{ ?s ?p ?o }} }}")
+    removed = backend.triples(f"CONSTRUCT {{ ?s ?p ?o }} WHERE {{ GRAPH {n3(removed_graph(number))} {{ ?s ?p ?o }} }}")
     return ChangeSet(added=frozenset(added), removed=frozenset(removed))

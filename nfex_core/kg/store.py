@@ -442,18 +442,21 @@ class KnowledgeGraph:
         self.version_info(number)
         return read_changes(self.backend, number)
 
-    def diff(self, since: int, until: int | None = None) -> ChangeSet:
-        """The net change from version ``since`` to version ``until`` (default: the head)."""
-        until = self.version if until is None else until
-        if not 0 <= since <= self.version or not 0 <= until <= self.version:
-            raise NotFound(f"versions must lie in 0..{self.version}")
+    def diff(self, since: int, until: int | None = None, *, read: Callable[[int], ChangeSet] | None = None) -> ChangeSet:
+        """The net change from version ``since`` to version ``until`` (default: the head); ``read``: how a version's
+        change set is read (default ``read_changes``; a compile passes one that reads each version once)."""
+        head = self.version
+        until = head if until is None else until
+        if not 0 <= since <= head or not 0 <= until <= head:
+            raise NotFound(f"versions must lie in 0..{head}")
+        read = read or (lambda n: read_changes(self.backend, n))
         net = ChangeSet()  # the range is checked above: each version's change set is read directly
         if since <= until:
             for n in range(since + 1, until + 1):
-                net = net.then(read_changes(self.backend, n))
+                net = net.then(read(n))
         else:
             for n in range(since, until, -1):
-                net = net.then(read_changes(self.backend, n).inverse())
+                net = net.then(read(n).inverse())
         return net
 
     def rollback(self, to: int, *, author: str, expected_version: int | None = None) -> CommitResult:

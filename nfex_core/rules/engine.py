@@ -45,6 +45,7 @@ from ..evidence.view import EvidenceView, dump, evidence_view, summary_lines
 from ..kg.backends import EmbeddedBackend
 from ..kg.changes import evidence_only
 from ..kg.footprint import Anchor, Effect, Reach, anchors, change_effect, reads
+from ..kg.history import read_changes
 from ..kg.vocab import ExtractorSpec, Value
 from . import pruning
 from .persisted import CompiledCache
@@ -248,7 +249,10 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     (setup.py) when the change is evidence only, and each context's decision whose rule prunes are unchanged."""
     t0 = time.perf_counter()
     version = kg.version
-    diff = functools.cache(kg.diff)  # the stages below read the same change once
+    # the stages below read the same change once, and each version's change set once: while reports stream in, the
+    # head moves during a compile and its ranges overlap (version → head, read again as the head moves)
+    changes = functools.cache(lambda n: read_changes(kg.backend, n))
+    diff = functools.cache(lambda since, until: kg.diff(since, until, read=changes))
     # a full read of the observations runs in the store without the interpreter lock (observations.py) while the
     # configuration stage below parses the rules' queries with it
     reading = _pool().submit(ObservationIndex.read, kg) if previous is None or previous.index is None else None

@@ -93,12 +93,17 @@ def test_a_compile_carries_the_view_and_answers_as_a_full_compile(shipped_kg: Kn
                                   frames=10, ate_rmse=40.0, extraction_ms=4.0, width=1241, height=376, tracking_lost=9))
     finally:
         writer.close()
+    import nfex_core.rules.engine as engine
+
     reads: list[tuple[int, int | None]] = []
-    diff = shipped_kg.diff
-    monkeypatch.setattr(shipped_kg, "diff", lambda since, until=None: reads.append((since, until)) or diff(since, until))
+    versions: list[int] = []
+    diff, read = shipped_kg.diff, engine.read_changes
+    monkeypatch.setattr(shipped_kg, "diff", lambda since, until=None, **kw: reads.append((since, until)) or diff(since, until, **kw))
+    monkeypatch.setattr(engine, "read_changes", lambda backend, n: versions.append(n) or read(backend, n))
     carried = compile_table(shipped_kg, first)
     monkeypatch.undo()
     assert reads == [(first.version, shipped_kg.version)], "the index and the view read the change once between them"
+    assert sorted(versions) == list(range(first.version + 1, shipped_kg.version + 1)), "each version's change set read once"
     assert first.view is None, "a view is handed to one compile only"
     assert carried.view is not None and carried.view.incremental
     full = compile_table(shipped_kg)
