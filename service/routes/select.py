@@ -5,11 +5,11 @@ from typing import Literal
 
 from fastapi import APIRouter, Query, Request, Response
 from fastapi.concurrency import run_in_threadpool
-from pydantic_core import to_json
 
 from ..deps import AdvisorDep, SettingsDep
 from ..frames import keypoints_flag, keypoints_of, read_select
 from ..schemas import CONTEXT_EXAMPLE, PROBLEM_RESPONSES, Selection, problems
+from ..schemas.selection import answer_json
 
 router = APIRouter(prefix="/v1", tags=["selection"])
 
@@ -61,7 +61,4 @@ async def select(request: Request, advisor: AdvisorDep, settings: SettingsDep,
     out = selection.as_dict()
     if "keypoints" in request.query_params and keypoints_flag(request.query_params["keypoints"]):  # opt-in: off the hot path
         out["keypoints"] = await run_in_threadpool(keypoints_of, request.app.state.kg.vocabulary(), selection, frame)
-    # written as it is: validating ``out`` against ``Selection`` and serialising the model was ~40% of a select's time
-    # on the event loop. ``Selection`` still documents the answer; tests/service/test_openapi.py holds real answers
-    # to it, and tests/service/test_schemas.py the model to ``as_dict``. NaN and infinities as null, as the model writes them.
-    return Response(to_json(out, inf_nan_mode="null"), media_type="application/json")
+    return Response(answer_json(out), media_type="application/json")  # unvalidated: service/schemas/selection.py

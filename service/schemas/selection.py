@@ -1,19 +1,24 @@
 """The Selection as the service returns it: the one schema of ``POST /v1/select`` and of a stream's frames.
 
 These models describe exactly what ``nfex_core.advisor.selection.Selection.as_dict()`` produces; the
-routes use them as ``response_model`` (FastAPI validates and serialises every answer through them, unset
-optional members left out, so the wire format is ``as_dict()``'s), the OpenAPI document publishes them,
-and the Python client's types are generated from that document (``clients/python/generate_types.py``,
-checked by ``tests/clients/test_client_types.py``).
+routes name them as ``response_model``, the OpenAPI document publishes them, and the Python client's types
+are generated from that document (``clients/python/generate_types.py``, checked by
+``tests/clients/test_client_types.py``). ``POST /v1/select`` writes ``as_dict()`` as it is (``answer_json``):
+validating each answer through the model was ~40% of a select's time on the event loop (py-spy), and
+``tests/service/test_schemas.py`` holds real selections to the model and ``answer_json`` to the model's JSON.
 
 **Extending the Selection** (e.g. the verification stage's "tried + what each showed") is one change
 here: add the member to ``Selection`` (with its own model below if it is an object), then regenerate the
 client's types with ``python clients/python/generate_types.py``. Every member is ``extra="forbid"``: a key
-``as_dict()`` emits that this schema lacks fails every service test that selects, so the two cannot drift.
+``as_dict()`` emits that this schema lacks fails test_schemas.py and the real answers of test_openapi.py, so the
+two cannot drift.
 """
 from __future__ import annotations
 
+from typing import Any
+
 from pydantic import BaseModel, ConfigDict, Field
+from pydantic_core import to_json
 
 Value = int | float | bool  # a parameter value, as nfex_core.kg.vocab.Value
 
@@ -243,3 +248,9 @@ class SessionSelection(Selection):
     """A stream's frame: the Selection and where the stream stands."""
 
     session: StreamPosition
+
+
+def answer_json(out: dict[str, Any]) -> bytes:
+    """A Selection's ``as_dict()`` as the service writes it, unvalidated: the JSON the model would write (NaN and the
+    infinities as null), members in ``as_dict()``'s order."""
+    return to_json(out, inf_nan_mode="null")

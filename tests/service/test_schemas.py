@@ -46,6 +46,39 @@ def test_selections_roundtrip_through_the_schema(kg: KnowledgeGraph, frames: lis
     assert {"f_metrics", "measured_accuracy", "budget"} <= seen  # the optional members were exercised
 
 
+def _typed(value: Any) -> Any:
+    """``value`` with each number's type kept in the comparison (1 and 1.0 differ on the wire; == does not tell)."""
+    if isinstance(value, dict):
+        return {k: _typed(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_typed(v) for v in value]
+    return (type(value).__name__, value)
+
+
+def test_the_answer_written_unvalidated_is_the_models_json(kg: KnowledgeGraph, frames: list[Any]) -> None:
+    """``answer_json`` (what ``POST /v1/select`` writes, without validating through the model) gives the JSON the
+    model gives, value for value and type for type, on real selections with and without frames and budgets; NaN and
+    the infinities are null, as the model writes them."""
+    import json
+    import math
+
+    from service.schemas.selection import answer_json
+
+    advisor = Advisor(kg)
+    first = advisor.select({"agent": "car"}, frames[0])
+    for sel in [advisor.select({"agent": "car", "motion": "fast"}), advisor.select({"agent": "drone", "light": "dark"}),
+                advisor.select({"agent": "car"}, budget_ms=5.0), first, advisor.select({"agent": "car"}, frames[1], first.state)]:
+        out = sel.as_dict()
+        model = json.loads(Selection.model_validate(out).model_dump_json(by_alias=True, exclude_unset=True))
+        assert _typed(json.loads(answer_json(out))) == _typed(model)
+    out = advisor.select({"agent": "car"}).as_dict()
+    out["candidates"][0]["score"], out["candidates"][-1]["score"] = math.nan, math.inf
+    model = json.loads(Selection.model_validate(out).model_dump_json(by_alias=True, exclude_unset=True))
+    written = json.loads(answer_json(out))
+    assert written["candidates"][0]["score"] is None and written["candidates"][-1]["score"] is None
+    assert _typed(written) == _typed(model)
+
+
 def test_a_member_the_schema_lacks_is_refused(kg: KnowledgeGraph) -> None:
     out = Advisor(kg).select({"agent": "car"}).as_dict()
     with pytest.raises(pydantic.ValidationError):
