@@ -436,16 +436,30 @@ def _extractor_names(setup: Setup) -> dict[str, str]:
 def _carried_setup(kg: KnowledgeGraph, previous: RuleTable | None, version: int, diff: Diff,
                    absent: Mapping[str, Citation]) -> Setup | None:
     """``previous``'s configuration stage, where the change from its version to ``version`` is evidence only
-    (kg.changes.evidence_only) and the same backends are missing; else None (read it again)."""
+    (kg.changes.evidence_only) and the same backends are missing; else None (read it again).
+
+    The types are read at the head ``now``; a commit landing while they are read makes the read inexact, so it is
+    read again, three times. A store this process alone writes is then read once more holding its write lock, where
+    no commit can land: reports committed every few milliseconds (one reporter, batches of one) outran three reads
+    and made each compile re-read its configuration (tests/nfex_core/rules/test_setup.py)."""
     if previous is None or previous.setup is None or dict(previous.setup.absent) != dict(absent):
         return None
     try:
         change = diff(previous.version, version)
-        for _ in range(3):  # the types are read at ``now``; a commit landing while they are read: read again
+
+        def read() -> bool | None:
             now = kg.version
             found = evidence_only(kg.backend, change, diff(version, now) if now != version else None)
-            if kg.version == now:
+            return found if kg.version == now else None
+
+        for _ in range(3):
+            found = read()
+            if found is not None:
                 return previous.setup if found else None
+        if kg.backend.exclusive:
+            with kg.backend.write_lock:  # the commits wait a few reads; nothing here waits on a commit
+                found = read()
+            return previous.setup if found else None
     except Exception:  # a pruned or unreadable history
         return None
     return None

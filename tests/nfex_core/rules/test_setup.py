@@ -231,7 +231,8 @@ def test_under_a_stream_of_reports_each_compile_carries_the_last(shipped_kg: Kno
     """Regression: a compile that saw a commit land while it ran gave its view version −1, so under a stream
     every compile dumped the graph again and read its configuration again. A compile is now pinned to the
     version it started at: the view is advanced and the configuration stage carried while reports land
-    (each compile here is slowed by 0.1 s, so that commits do land in it)."""
+    (each compile here is slowed by 0.1 s, so that commits do land in it; the stream goes on until three compiles ran
+    beside it, as commits got fast enough that 24 reports could end within two)."""
     import threading
 
     from nfex_core.evidence.index import ObservationIndex
@@ -240,12 +241,14 @@ def test_under_a_stream_of_reports_each_compile_carries_the_last(shipped_kg: Kno
     monkeypatch.setattr(ObservationIndex, "advance", lambda self, *a: time.sleep(0.1) or advance(self, *a))
     table = compile_table(shipped_kg)
     first = table.setup
-    done = threading.Event()
+    done, enough = threading.Event(), threading.Event()
     writer = ReportWriter(shipped_kg, max_items=4)
 
     def stream() -> None:
         try:
-            for i in range(24):
+            for i in range(400):  # a bound, should compiles stop: the assertion below then fails
+                if i >= 24 and enough.is_set():
+                    break
                 _report(writer, f"r{i % 2}")
         finally:
             done.set()
@@ -259,6 +262,8 @@ def test_under_a_stream_of_reports_each_compile_carries_the_last(shipped_kg: Kno
                 table = compile_table(shipped_kg, table)
                 compiles += 1
                 carried += table.setup is first and table.view is not None and table.view.incremental and table.view.version >= 0
+                if compiles >= 3:
+                    enough.set()
     finally:
         thread.join()
         writer.close()
