@@ -21,6 +21,7 @@ every report before every commit would pay N validations per batch to save work 
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from concurrent.futures import Future
 from dataclasses import dataclass, field
@@ -88,11 +89,29 @@ def configuration_graph(vocab: Vocabulary, extractor: str, params: dict[str, Any
     return g, cfg
 
 
+def _check_values(fb: Feedback) -> None:
+    """Refuse what the graph cannot hold or would hold wrongly: a non-finite measurement (it would poison every
+    aggregate that reads it), and text that is no Unicode (a lone surrogate cannot be written as UTF-8)."""
+    for name in ("ate_rmse", "rpe_rmse", "mean_inliers", "mean_matches", "mean_keypoints", "extraction_ms", "matching_ms"):
+        x = getattr(fb, name)
+        if x is not None and not math.isfinite(float(x)):
+            raise BadInput(f"{name} must be a finite number, not {x}", field=name)
+    texts = [fb.extractor, fb.sequence, fb.dataset, fb.client, fb.session, fb.reporter, *fb.context, *fb.params]
+    texts += [v for v in (*fb.context.values(), *fb.params.values()) if isinstance(v, str)]
+    for text in texts:
+        if isinstance(text, str):
+            try:
+                text.encode("utf-8")
+            except UnicodeEncodeError:
+                raise BadInput("the report holds a lone surrogate (U+D800–U+DFFF) in a name or value") from None
+
+
 def measurement_graph(vocab: Vocabulary, fb: Feedback, *, run_exists: bool = False, now: datetime | None = None,
                       configuration: URIRef | None = None) -> tuple[rdflib.Graph, URIRef]:
     """The Measurement for ``fb`` with its configuration, sequence, run and agent (``configuration``: the
     configuration's IRI, its own triples left out, for a writer that has them already: ``ReportWriter``)."""
     now = now or datetime.now(UTC)
+    _check_values(fb)
     context = vocab.check_context(fb.context)
     frames = fb.frames
     if frames is None and fb.window_start is not None and fb.window_end is not None:

@@ -8,6 +8,8 @@
 | NFEX_MAX_BODY_BYTES        | largest request body (413 above)                                   | 16 MiB    |
 | NFEX_MAX_IMAGE_BYTES       | largest encoded frame                                              | 12 MiB    |
 | NFEX_MAX_PIXELS            | largest frame, width × height, read from the header before decoding | 16 Mpx    |
+| NFEX_MAX_DECODED_BYTES     | largest decoded frame, pixels × channels × bytes a sample (a 4K colour frame fits) | 24 MiB |
+| NFEX_BODY_TIMEOUT_S        | longest wait for the next part of a request body (408 after it)    | 30 s      |
 | NFEX_SPARQL_TIMEOUT_S      | time limit per SPARQL query                                        | 10 s      |
 | NFEX_SPARQL_MAX_BYTES      | result-size limit per SPARQL query (serialised bytes)              | 32 MiB    |
 | NFEX_SPARQL_CONCURRENCY    | queries running at once per process (slots held by runaway ones)   | 4         |
@@ -55,6 +57,8 @@ class Settings(BaseSettings):
     max_body_bytes: int = 16 * 1024 * 1024
     max_image_bytes: int = 12 * 1024 * 1024
     max_pixels: int = 16_000_000
+    max_decoded_bytes: int = 24 * 1024 * 1024
+    body_timeout_s: float = 30.0
     sparql_timeout_s: float = 10.0
     sparql_max_bytes: int = 32 * 1024 * 1024
     sparql_concurrency: int = 4

@@ -39,7 +39,7 @@ async def get_sessions(request: Request) -> SessionStore:
     return request.app.state.sessions
 
 
-_ETAG = re.compile(r'^\s*(?:W/)?"?(\d+)"?\s*$')
+_ETAG = re.compile(r'^\s*(?:W/)?"?(\d{1,18})"?\s*$')  # a graph version, not a number of thousands of digits
 
 
 async def expected_version(if_match: Annotated[str | None, Header(alias="If-Match")] = None) -> int | None:
@@ -48,7 +48,7 @@ async def expected_version(if_match: Annotated[str | None, Header(alias="If-Matc
         return None
     m = _ETAG.match(if_match)
     if m is None:
-        raise BadInput(f'If-Match must be a graph version ETag like "12", not {if_match!r}')
+        raise BadInput(f'If-Match must be a graph version ETag like "12", not {if_match[:40]!r}')
     return int(m.group(1))
 
 

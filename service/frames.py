@@ -1,7 +1,6 @@
 """Reading a selection request (multipart frame + context, or JSON context) and running the advisor."""
 from __future__ import annotations
 
-import json
 from typing import Any
 
 import numpy as np
@@ -12,24 +11,40 @@ from starlette.datastructures import UploadFile
 from nfex_core.advisor import Selection
 from nfex_core.errors import BadInput
 
-from .bodies import media_type
+from .bodies import media_type, strict_json
 from .config import Settings
 from .images import PayloadTooLarge, UnsupportedMediaType, decode_frame
 from .schemas import SelectRequest
 
 
 def parse_context(text: str | bytes | None) -> dict[str, str | None]:
+    """The multipart ``context`` part: a JSON object of condition dimension → value (or ``{"context": {…}}``).
+    A value may be a string, a finite number (``budget_ms``: ``20`` or ``"20"``) or null; every 400 names the
+    key and what was wrong with it."""
     if text is None or (isinstance(text, str | bytes) and not text.strip()):
         return {}
-    try:
-        data = json.loads(text)
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise BadInput(f"context is not valid JSON: {e}") from e
+    data = strict_json(text, "the context part")
     if isinstance(data, dict) and set(data) == {"context"} and isinstance(data["context"], dict):
         data = data["context"]
-    if not isinstance(data, dict) or not all(isinstance(v, str | type(None)) for v in data.values()):
-        raise BadInput('context must be a JSON object of condition dimension → value, e.g. {"light": "dark"}')
-    return data
+    if not isinstance(data, dict):
+        raise BadInput(f'context must be a JSON object of condition dimension → value, e.g. {{"light": "dark"}}, '
+                       f"not {type(data).__name__ if not isinstance(data, list) else 'an array'}")
+    return context_values(data)
+
+
+def context_values(data: dict[str, Any]) -> dict[str, str | None]:
+    """Condition dimension → value as strings; numbers (not booleans) are written as the client sent them."""
+    out: dict[str, str | None] = {}
+    for key, value in data.items():
+        if value is None or isinstance(value, str):
+            out[key] = value
+        elif isinstance(value, int | float) and not isinstance(value, bool):
+            out[key] = str(value)
+        else:
+            kind = {bool: "a boolean", dict: "an object", list: "an array"}.get(type(value), type(value).__name__)
+            raise BadInput(f"context[{key!r}] is {kind}; a condition value is a string, a number (budget_ms) or null",
+                           key=key)
+    return out
 
 
 async def read_select(request: Request, settings: Settings, *, frame_required: bool = False) -> tuple[dict[str, str | None], np.ndarray | None]:
@@ -70,7 +85,8 @@ async def read_select(request: Request, settings: Settings, *, frame_required: b
             if not isinstance(part, UploadFile):
                 raise BadInput("'frame' must be a file part (PNG or JPEG)")
             data = await part.read(settings.max_image_bytes + 1)
-            image = decode_frame(data, part.content_type, max_bytes=settings.max_image_bytes, max_pixels=settings.max_pixels)
+            image = decode_frame(data, part.content_type, max_bytes=settings.max_image_bytes, max_pixels=settings.max_pixels,
+                                 max_decoded_bytes=settings.max_decoded_bytes)
             return context, image
         finally:
             await form.close()

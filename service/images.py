@@ -1,4 +1,4 @@
-"""Frames from the wire: check type, size and pixel count *before* decoding, then ``cv2.imdecode``.
+"""Frames from the wire: check type, size, pixel count and decoded size *before* decoding, then ``cv2.imdecode``.
 
 The pixel count comes from the PNG IHDR chunk or the JPEG SOF marker, so a small file that would
 decode to gigabytes (a decompression bomb) is refused without allocating it.
@@ -39,13 +39,24 @@ class BadImage(BadInput):
     title = "The frame cannot be decoded"
 
 
+PNG_CHANNELS = {0: 1, 2: 3, 3: 1, 4: 2, 6: 4}  # by colour type: grey, RGB, palette, grey + alpha, RGBA
+
+
 def image_size(data: bytes) -> tuple[str, int, int]:
     """(format, width, height) from the header; BadImage for a truncated or corrupt header."""
+    fmt, w, h, _ = image_header(data)
+    return fmt, w, h
+
+
+def image_header(data: bytes) -> tuple[str, int, int, int]:
+    """(format, width, height, bytes the decoder writes per pixel) from the header; BadImage for a truncated or
+    corrupt header."""
     if data.startswith(PNG_MAGIC):
-        if len(data) < 24 or data[12:16] != b"IHDR":
+        if len(data) < 26 or data[12:16] != b"IHDR":
             raise BadImage("the PNG header is truncated or has no IHDR chunk")
         w, h = struct.unpack(">II", data[16:24])
-        return "png", w, h
+        depth, colour = data[24], data[25]
+        return "png", w, h, PNG_CHANNELS.get(colour, 4) * max(1, depth // 8)
     if data.startswith(JPEG_MAGIC):
         i = 2
         while i + 4 <= len(data):
@@ -60,16 +71,18 @@ def image_size(data: bytes) -> tuple[str, int, int]:
                 continue
             (length,) = struct.unpack(">H", data[i + 2 : i + 4])
             if marker in _SOF:
-                if i + 9 > len(data):
+                if i + 10 > len(data):
                     break
+                precision = data[i + 4]
                 h, w = struct.unpack(">HH", data[i + 5 : i + 9])
-                return "jpeg", w, h
+                return "jpeg", w, h, data[i + 9] * max(1, (precision + 7) // 8)
             i += 2 + length
         raise BadImage("the JPEG is truncated before its frame header (SOF)")
     raise UnsupportedMediaType("the frame is neither PNG nor JPEG (checked by its first bytes)")
 
 
-def decode_frame(data: bytes, content_type: str | None, *, max_bytes: int, max_pixels: int) -> np.ndarray:
+def decode_frame(data: bytes, content_type: str | None, *, max_bytes: int, max_pixels: int,
+                 max_decoded_bytes: int | None = None) -> np.ndarray:
     """A frame as a uint8 grey image (colour is converted; 16-bit is scaled), or a 4xx NfexError."""
     media = media_type(content_type)
     if media not in ACCEPTED_TYPES:
@@ -78,11 +91,16 @@ def decode_frame(data: bytes, content_type: str | None, *, max_bytes: int, max_p
         raise BadImage("the frame is empty (0 bytes)")
     if len(data) > max_bytes:
         raise PayloadTooLarge(f"the frame has {len(data)} bytes; the limit is {max_bytes}", limit=max_bytes)
-    fmt, w, h = image_size(data)
+    fmt, w, h, per_pixel = image_header(data)
     if w == 0 or h == 0:
         raise BadImage(f"the {fmt.upper()} header says {w}×{h} pixels")
     if w * h > max_pixels:
         raise PayloadTooLarge(f"the frame is {w}×{h} = {w * h} pixels; the limit is {max_pixels}", limit=max_pixels)
+    decoded = w * h * per_pixel  # what the decoder inflates and converts: the cost of a deep or colour frame
+    if max_decoded_bytes is not None and decoded > max_decoded_bytes:
+        raise PayloadTooLarge(
+            f"the frame decodes to {decoded} bytes ({w}×{h}, {per_pixel} bytes a pixel); the limit is {max_decoded_bytes}: "
+            "send 8-bit grey or a smaller frame", limit=max_decoded_bytes)
     import cv2
 
     image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_GRAYSCALE)

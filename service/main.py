@@ -17,6 +17,7 @@ from nfex_core.feedback import ReportWriter
 from nfex_core.knowledge import open_graph
 
 from . import openapi, problems
+from .bodies import JsonBodyGuard
 from .config import Settings
 from .methods import MethodsMiddleware
 from .observability import Metrics, ServiceMiddleware, setup_logging
@@ -133,5 +134,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     ui.mount(app)
     app.add_middleware(TokenInUrlGuard, tokens=lambda: getattr(app.state, "tokens", None))
     app.add_middleware(ReadOnlyCORS, origins=settings.parsed_cors_origins())
-    app.add_middleware(ServiceMiddleware, metrics=metrics, max_body_bytes=settings.max_body_bytes)
+    app.add_middleware(JsonBodyGuard)
+    app.add_middleware(ServiceMiddleware, metrics=metrics, max_body_bytes=settings.max_body_bytes,
+                       body_timeout_s=settings.body_timeout_s)
     return app

@@ -1,6 +1,7 @@
 """Structured (JSON) logs, Prometheus metrics and the request-size limit, as plain ASGI middleware."""
 from __future__ import annotations
 
+import asyncio
 import json
 import logging
 import sys
@@ -9,6 +10,8 @@ from collections.abc import Awaitable, Callable, MutableMapping
 from typing import Any
 
 from prometheus_client import CollectorRegistry, Counter, Gauge, Histogram
+
+from nfex_core.errors import NfexError
 
 from .images import PayloadTooLarge
 from .problems import PROBLEM_JSON
@@ -61,13 +64,22 @@ class Metrics:
         self.graph_version = Gauge("nfex_graph_version", "Graph version at head", registry=self.registry)
 
 
-class ServiceMiddleware:
-    """Per request: refuse bodies over ``max_body_bytes`` (413), count and time it, log one JSON line."""
+class BodyTimeout(NfexError):
+    status = 408
+    type = "body-timeout"
+    title = "Request body timeout"
+    exit_code = 2
 
-    def __init__(self, app: ASGIApp, *, metrics: Metrics, max_body_bytes: int) -> None:
+
+class ServiceMiddleware:
+    """Per request: refuse bodies over ``max_body_bytes`` (413) and bodies that stall longer than ``body_timeout_s``
+    between parts (408), count and time it, log one JSON line."""
+
+    def __init__(self, app: ASGIApp, *, metrics: Metrics, max_body_bytes: int, body_timeout_s: float = 30.0) -> None:
         self.app = app
         self.metrics = metrics
         self.max_body_bytes = max_body_bytes
+        self.body_timeout_s = body_timeout_s
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] != "http":
@@ -96,11 +108,18 @@ class ServiceMiddleware:
             if length is not None and (not length.isdigit() or int(length) > limit):
                 await reject()
                 return
-            seen = {"n": 0}
+            seen = {"n": 0, "done": 0}
 
             async def limited_receive() -> Message:
-                message = await receive()
+                if seen["done"]:  # the body is in: what comes now is a disconnect, whenever it comes
+                    return await receive()
+                try:  # a client that stalls mid-body holds a connection and a handler: not longer than this
+                    message = await asyncio.wait_for(receive(), self.body_timeout_s)
+                except TimeoutError:
+                    raise BodyTimeout(f"the request body stalled: nothing arrived for {self.body_timeout_s:g} s",
+                                      limit_s=self.body_timeout_s) from None
                 if message["type"] == "http.request":
+                    seen["done"] = int(not message.get("more_body", False))
                     seen["n"] += len(message.get("body", b""))
                     if seen["n"] > limit:
                         raise PayloadTooLarge(f"the request body exceeds the limit of {limit} bytes", limit=limit)

@@ -2,6 +2,8 @@
 from __future__ import annotations
 
 import logging
+import math
+from typing import Any
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
@@ -18,7 +20,36 @@ log = logging.getLogger("nfex.service")
 
 def problem(status: int, type_: str, title: str, detail: str, **extra: object) -> JSONResponse:
     body = {"type": PROBLEM_BASE + type_, "title": title, "status": status, "detail": detail, **extra}
-    return JSONResponse(body, status_code=status, media_type=PROBLEM_JSON)
+    return render(body, status)
+
+
+def printable(value: Any, depth: int = 0) -> Any:
+    """``value`` with every string writable as UTF-8 (a lone surrogate becomes U+FFFD) and non-finite numbers
+    as null: a problem echoes what the client sent, and echoing it must not fail."""
+    if isinstance(value, str):
+        return value.encode("utf-8", "replace").decode("utf-8")
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if depth > 20:
+        return None
+    if isinstance(value, dict):
+        return {printable(str(k)): printable(v, depth + 1) for k, v in value.items()}
+    if isinstance(value, list | tuple | set | frozenset):
+        return [printable(v, depth + 1) for v in value]
+    if value is None or isinstance(value, bool | int):
+        return value
+    return printable(str(value))
+
+
+def render(body: dict[str, Any], status: int, headers: dict[str, str] | None = None) -> JSONResponse:
+    """The problem+json response for ``body``; it cannot fail on what the body echoes."""
+    try:
+        return JSONResponse(printable(body), status_code=status, media_type=PROBLEM_JSON, headers=headers)
+    except Exception:  # the last resort: a fixed body that says where to look
+        log.exception("rendering a problem failed")
+        return JSONResponse({"type": PROBLEM_BASE + "internal-error", "title": "Internal error", "status": 500,
+                             "detail": "the error could not be rendered; see the service log"}, status_code=500,
+                            media_type=PROBLEM_JSON)
 
 
 def install(app: FastAPI) -> None:
@@ -26,8 +57,7 @@ def install(app: FastAPI) -> None:
     async def _nfex(request: Request, exc: NfexError) -> JSONResponse:
         if exc.status >= 500:
             log.warning("%s %s: %s", request.method, request.url.path, exc.detail)
-        return JSONResponse(exc.problem(), status_code=exc.status, media_type=PROBLEM_JSON,
-                            headers=dict(getattr(exc, "headers", None) or {}))
+        return render(exc.problem(), exc.status, dict(getattr(exc, "headers", None) or {}))
 
     @app.exception_handler(RequestValidationError)
     async def _validation(request: Request, exc: RequestValidationError) -> JSONResponse:

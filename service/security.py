@@ -31,7 +31,7 @@ from nfex_core.errors import BadInput, NfexError
 
 from .config import ROLES, Token
 from .observability import ASGIApp, Message, Receive, Scope, Send
-from .problems import PROBLEM_JSON
+from .problems import PROBLEM_JSON, printable
 
 
 class Unauthorized(NfexError):
@@ -122,7 +122,7 @@ def require(role: str, what: str) -> Callable[..., Awaitable[Token]]:
 
 
 def _problem_body(error: NfexError) -> bytes:
-    return json.dumps(error.problem()).encode()
+    return json.dumps(printable(error.problem())).encode()
 
 
 async def _send_problem(send: Send, error: NfexError, headers: list[tuple[bytes, bytes]] | None = None) -> None:

@@ -44,7 +44,8 @@ def sparql(
     format: Annotated[Format, typer.Option("--format", help="Output format for SELECT/ASK results.")] = Format.table,
 ) -> None:
     """Run a SPARQL 1.1 query against the knowledge graph (read-only)."""
-    from ..kg.sparql_query import classify, with_prefixes
+    from ..kg.sparql_gate import gate_query
+    from ..kg.sparql_query import with_prefixes
     from ..namespaces import PREFIXES
 
     if (query is None) == (file is None):
@@ -55,7 +56,7 @@ def sparql(
         except OSError as e:
             raise BadInput(f"{file}: cannot read: {e.strerror}") from e
     assert query is not None
-    form = classify(query)
+    form = gate_query(query).form
     kg = open_kg()
     text = with_prefixes(query)
     if form == "ask":

@@ -15,7 +15,7 @@ the graph itself.
 from __future__ import annotations
 
 import io
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -93,5 +93,5 @@ class ScopedGraph(KnowledgeGraph):
         super().__init__(backend, settings)
         self.scope = scope
 
-    def commit(self, change: ChangeSet, **kwargs: Any) -> CommitResult:
+    def commit(self, change: ChangeSet | Callable[[], ChangeSet], **kwargs: Any) -> CommitResult:
         raise BadInput(f"this graph is a read-only view under an evidence scope ({self.scope.describe()})")

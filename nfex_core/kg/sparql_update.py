@@ -13,7 +13,7 @@ random updates over random graphs.
 
 Either way the change then goes through the same validated, versioned commit as any other write.
 Operations that fetch URLs or touch named graphs (LOAD, CLEAR, DROP, CREATE, ADD, MOVE, COPY, SERVICE)
-are refused before anything is copied (``sparql_guard``): evaluating them even on a copy would fetch.
+are refused before anything is copied (``sparql_gate``): evaluating them even on a copy would fetch.
 The copy holds no named graphs, so an update writing to one is refused, and one reading one reads nothing.
 """
 from __future__ import annotations
@@ -25,7 +25,7 @@ import rdflib
 
 from ..errors import BadInput, ParseError
 from .changes import ChangeSet
-from .sparql_guard import refuse_unsafe_update
+from .sparql_gate import gate_update
 from .terms import from_oxigraph
 from .update_reach import EVERYTHING, reach
 
@@ -56,9 +56,7 @@ def change_by_copy(backend: Backend, update: str) -> ChangeSet:
 
 
 def _check(update: str) -> None:
-    if not update.strip():
-        raise BadInput("the update is empty")
-    refuse_unsafe_update(update)
+    gate_update(update)
 
 
 def _scratch(triples: rdflib.Graph) -> ox.Store:

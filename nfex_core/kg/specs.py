@@ -6,6 +6,7 @@ checks it through them.
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -63,6 +64,8 @@ class ParameterSpec:
             number = float(value)
         except (TypeError, ValueError):
             raise ParameterError(f"{where} is not a number; allowed: {self.range_text()}", parameter=self.qualified) from None
+        if not math.isfinite(number):
+            raise ParameterError(f"{where} is not a finite number; allowed: {self.range_text()}", parameter=self.qualified)
         if self.datatype == "integer":
             if number != int(number):
                 raise ParameterError(f"{where} is not an integer; allowed: {self.range_text()}", parameter=self.qualified)

@@ -48,7 +48,7 @@ from .history import (
     write_version,
 )
 from .shacl_process import ShaclProcess
-from .sparql_guard import refuse_unsafe_change
+from .sparql_gate import gate_change, gate_update
 from .sparql_update import change_of_update
 from .terms import Triple, n3, py
 from .validation import (
@@ -278,7 +278,7 @@ class KnowledgeGraph:
 
     def commit(
         self,
-        change: ChangeSet,
+        change: ChangeSet | Callable[[], ChangeSet],
         *,
         author: str,
         message: str = "",
@@ -293,10 +293,16 @@ class KnowledgeGraph:
         past ``CLAIM_WAIT_S``. When another writer commits first, the change is re-checked against the
         new head and retried (unless ``expected_version`` pins the head); while another writer holds a
         live claim (claims.py) this one waits for its commit or its expiry.
+
+        ``change`` may be a function that computes the change from the store as it is (a SPARQL Update's
+        ``DELETE … INSERT … WHERE``): it is called under the write lock, at the head it is committed on, and
+        again whenever the head moves before the commit — so a change read from an older state is never
+        replayed on a newer one, where it could be empty or wrong (a lost update).
         """
-        if any(isinstance(x, rdflib.BNode) for t in change.added | change.removed for x in t):
-            raise BadInput("change sets must not contain blank nodes; build them with graph_triples()")
-        refuse_unsafe_change(change)
+        compute = change if callable(change) else None
+        if compute is None:
+            assert isinstance(change, ChangeSet)
+            self._refuse(change)
         with self.backend.write_lock:
             lost = 0
             waited = 0.0
@@ -309,6 +315,12 @@ class KnowledgeGraph:
                         current_version=head,
                     )
                 if checked is None or checked[0] != head:
+                    if compute is not None:
+                        change = compute()
+                        self._refuse(change)
+                        if self.version != head:  # a commit of another process landed while it was read
+                            continue
+                    assert isinstance(change, ChangeSet)
                     core = core_violations(self.backend, change)  # before the costlier steps: a change that
                     if core:  # would empty the graph (a rollback to 0) is refused in a few ASKs
                         raise ValidationFailed(core, "Conforms: False", current_version=head)
@@ -350,6 +362,12 @@ class KnowledgeGraph:
                         current_version=self.version,
                     )
                 time.sleep(random.uniform(0.005, 0.05) * lost)
+
+    @staticmethod
+    def _refuse(change: ChangeSet) -> None:
+        if any(isinstance(x, rdflib.BNode) for t in change.added | change.removed for x in t):
+            raise BadInput("change sets must not contain blank nodes; build them with graph_triples()")
+        gate_change(change)
 
     def load_validated(self, content: ChangeText, *, author: str, message: str = "") -> CommitResult:
         """Write ``content`` into an empty store as version 1, without validating it here.
@@ -421,11 +439,14 @@ class KnowledgeGraph:
     def update(self, sparql_update: str, *, author: str, message: str = "", expected_version: int | None = None) -> CommitResult:
         """Run a SPARQL 1.1 Update as a checked transaction.
 
-        The update is evaluated on a copy of the affected data to find what it would add and remove;
-        that change set then goes through ``commit`` like any other write.
+        The update is evaluated on a copy of the affected data to find what it would add and remove, under
+        the write lock and at the head it commits on (``commit`` with a function): two concurrent
+        ``DELETE … INSERT … WHERE`` updates each see the other's result, and neither is lost. The gate
+        (sparql_gate.py) judges the text before the lock is taken.
         """
-        change = change_of_update(self.backend, sparql_update)
-        return self.commit(change, author=author, message=message or "SPARQL update", expected_version=expected_version)
+        gate_update(sparql_update)
+        return self.commit(lambda: change_of_update(self.backend, sparql_update), author=author,
+                           message=message or "SPARQL update", expected_version=expected_version)
 
     # ------------------------------------------------------------------ versions
     def versions(self, limit: int | None = None) -> list[Version]:

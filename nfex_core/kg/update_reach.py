@@ -24,7 +24,8 @@ An update made of ``INSERT DATA`` alone, recognised from its keywords, reads not
 """
 from __future__ import annotations
 
-from collections.abc import Iterable
+import re
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -34,7 +35,6 @@ from rdflib.term import BNode, Literal, URIRef, Variable
 
 from .backends import Backend
 from .rdflib_sparql import RDFLIB_SPARQL_PARSER
-from .sparql_guard import decode_escapes, tokens
 from .terms import n3
 
 Pattern = tuple[URIRef | None, URIRef | None, URIRef | None]
@@ -76,6 +76,43 @@ class Reach:
 
 
 EVERYTHING = Reach(everything=True)
+
+# A lexical reading of SPARQL, enough to tell an update of INSERT DATA alone and text whose IRIs rdflib and
+# Oxigraph could read differently; what may run at all is decided on the parse (sparql_gate.py).
+_ESCAPE = re.compile(r"\\u([0-9A-Fa-f]{4})|\\U([0-9A-Fa-f]{8})")
+# one alternative per token kind; only the last (a bare word) can be a keyword
+_TOKEN = re.compile(
+    r"""
+      (?P<long>\"\"\"(?:[^"\\]|\\.|"(?!""))*(?:\"\"\"|$)|'''(?:[^'\\]|\\.|'(?!''))*(?:'''|$))
+    | (?P<short>"(?:[^"\\\n\r]|\\.)*(?:"|$)|'(?:[^'\\\n\r]|\\.)*(?:'|$))
+    | (?P<iri><[^<>"{}|^`\\\x00-\x20]*>)
+    | (?P<comment>\#[^\n\r]*)
+    | (?P<var>[?$][\w\u00B7\u0300-\u036F\u203F-\u2040]*)
+    | (?P<bnode>_:[\w.\-\u00B7]*)
+    | (?P<pname>[A-Za-z\u00C0-\uFFFF][\w.\-\u00B7]*:[\w.\-:%\\\u00B7]*|:[\w.\-:%\\\u00B7]*)
+    | (?P<word>[A-Za-z_][\w\-]*)
+    """,
+    re.VERBOSE | re.DOTALL,
+)
+
+
+
+def decode_escapes(text: str) -> str:
+    """SPARQL 1.1 §19.2: ``\\uXXXX`` and ``\\UXXXXXXXX`` stand for their code point anywhere in the text."""
+
+    def sub(m: re.Match[str]) -> str:
+        try:
+            return chr(int(m.group(1) or m.group(2), 16))
+        except (ValueError, OverflowError):
+            return m.group(0)
+
+    return _ESCAPE.sub(sub, text)
+
+
+def tokens(text: str) -> Iterator[re.Match[str]]:
+    """The tokens of ``text`` once its escapes are decoded; a token's kind is its match's ``lastgroup``
+    (long, short, iri, comment, var, bnode, pname, word). Characters outside every kind are skipped."""
+    return _TOKEN.finditer(decode_escapes(text))
 
 
 def only_inserts_data(update: str) -> bool:

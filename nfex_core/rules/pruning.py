@@ -30,7 +30,7 @@ from ..errors import BadInput, ParseError
 from ..identity import rule_iri
 from ..kg.backends import EmbeddedBackend
 from ..kg.changes import read_rdf_file
-from ..kg.sparql_guard import refuse_unsafe_query
+from ..kg.sparql_gate import gate_query
 from ..kg.terms import n3
 from ..namespaces import NFEX
 
@@ -144,7 +144,7 @@ def contextualise(query: str, dimensions: Sequence[str], values: Sequence[Sequen
 def check_rule(query: str, dimensions: Sequence[str]) -> None:
     """Refuse a rule that does not parse, calls SERVICE, uses the engine's ``?ctx_…`` variables (``contextualise``), or
     does not return ?extractor and ?reason (before it is stored)."""
-    refuse_unsafe_query(query)
+    gate_query(query)
     if _CONTEXT_VARIABLE.search(query):
         raise BadInput(f"a pruning rule must not use variables named ?{CONTEXT_INDEX}…: the engine binds them to say which context a row is for")
     try:
@@ -165,7 +165,7 @@ def evaluate(backend: EmbeddedBackend, rule: SparqlRule, query: str) -> dict[int
     view, evidence/view.py, an in-memory store). A rule prunes in many contexts at once (hundreds of rows, each
     its context's index, extractor and reason), so the rows are read as Oxigraph gives them, not as rdflib
     terms; an ``?extractor`` that is not an IRI is passed over."""
-    refuse_unsafe_query(rule.query)  # a rule stored by a raw update was never checked
+    gate_query(rule.query)  # a rule written before the gate judged stored text (kept per text: no parse per compile)
     res = backend.solutions(query)
     index = [v.value for v in res.variables if v.value.startswith(CONTEXT_INDEX)]
     extractors: dict[str, URIRef] = {}

@@ -21,8 +21,8 @@ from rdflib.namespace import RDF, RDFS
 
 from nfex_core.errors import BadInput, ParseError
 from nfex_core.kg.backends import GRAPH_FORMATS, RESULT_FORMATS
-from nfex_core.kg.sparql_guard import refuse_unsafe_query
-from nfex_core.kg.sparql_query import at_user_lines, classify, with_prefixes
+from nfex_core.kg.sparql_gate import gate_query
+from nfex_core.kg.sparql_query import at_user_lines, with_prefixes
 
 from ..bodies import media_type, utf8_text
 from ..deps import EditorDep, IfMatchDep, KGDep
@@ -101,10 +101,7 @@ async def _answer(request: Request, query: str | None, accept: str | None, param
         return service_description(request, accept)
     if params.get("default-graph-uri") or params.get("named-graph-uri"):
         raise BadInput("default-graph-uri / named-graph-uri are not supported: the dataset is fixed (see the service description)")
-    if not query.strip():
-        raise BadInput("the query is empty")
-    form = classify(query)
-    refuse_unsafe_query(query)
+    form = gate_query(query).form
     asked = [v for name in FORMAT_PARAMS for v in params.get(name, [])]
     media = from_format_params(asked, form) or negotiate(accept, form)
     try:

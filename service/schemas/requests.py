@@ -1,31 +1,47 @@
 """Request bodies at the HTTP edge, with their OpenAPI examples."""
 from __future__ import annotations
 
-from typing import Any
+from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
 
 CONTEXT_EXAMPLE: dict[str, Any] = {"agent": "car", "motion": "fast", "scene": "outdoor", "light": "bright"}
 
 
-class SelectRequest(BaseModel):
+class In(BaseModel):
+    """A request body: numbers are finite (``NaN``/``Infinity`` are not JSON, and ``"NaN"`` is no number here)."""
+
+    model_config = ConfigDict(allow_inf_nan=False)
+
+
+def _numbers_as_text(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {k: str(v) if isinstance(v, int | float) and not isinstance(v, bool) else v for k, v in value.items()}
+    return value
+
+
+# condition dimension → value; a number (budget_ms) is taken as its text
+Context = Annotated[dict[str, str | None], BeforeValidator(_numbers_as_text)]
+
+
+class SelectRequest(In):
     model_config = ConfigDict(extra="forbid", json_schema_extra={"examples": [{"context": CONTEXT_EXAMPLE}]})
 
-    context: dict[str, str | None] = Field(
+    context: Context = Field(
         default_factory=dict, description="Condition dimension → value; names and values come from GET /v1/vocabulary."
     )
 
 
-class SessionCreate(BaseModel):
+class SessionCreate(In):
     model_config = ConfigDict(
         extra="forbid", json_schema_extra={"examples": [{"context": {"agent": "car", "scene": "outdoor"}, "client": "kitti-replay"}]}
     )
 
-    context: dict[str, str | None] = Field(default_factory=dict, description="Context that holds for the whole stream.")
+    context: Context = Field(default_factory=dict, description="Context that holds for the whole stream.")
     client: str | None = Field(None, max_length=200, description="Who streams (recorded as the feedback's agent).")
 
 
-class FeedbackRequest(BaseModel):
+class FeedbackRequest(In):
     """What a client measured with a selection over a window of frames; becomes a nfex:Measurement."""
 
     model_config = ConfigDict(
@@ -49,7 +65,7 @@ class FeedbackRequest(BaseModel):
 
     extractor: str = Field(..., description="α the client ran (usually the selection's extractor).")
     params: dict[str, Any] = Field(default_factory=dict, description="Θ it ran with (OpenCV names); defaults fill the rest.")
-    context: dict[str, str | None] = Field(default_factory=dict)
+    context: Context = Field(default_factory=dict)
     session_id: str | None = Field(None, description="The session the frames came from; its context fills gaps.")
     sequence: str = Field("client-stream", min_length=1, max_length=200, description="Sequence name, e.g. kitti/01.")
     dataset: str | None = Field(None, max_length=200)
@@ -71,7 +87,7 @@ class FeedbackRequest(BaseModel):
     height: int | None = Field(None, ge=1)
 
 
-class ConditionValueIn(BaseModel):
+class ConditionValueIn(In):
     model_config = ConfigDict(extra="forbid", json_schema_extra={"examples": [{"name": "dusk", "label": "dusk", "comment": "Low sun."}]})
 
     name: str = Field(..., description="The token clients send (lower case).")
@@ -79,7 +95,7 @@ class ConditionValueIn(BaseModel):
     comment: str | None = None
 
 
-class ParameterPatch(BaseModel):
+class ParameterPatch(In):
     model_config = ConfigDict(extra="forbid", json_schema_extra={"examples": [{"default": 1500, "max": 8000}]})
 
     default: float | int | bool | None = None
@@ -90,7 +106,7 @@ class ParameterPatch(BaseModel):
     comment: str | None = None
 
 
-class RuleIn(BaseModel):
+class RuleIn(In):
     model_config = ConfigDict(
         extra="forbid",
         json_schema_extra={
@@ -110,13 +126,13 @@ class RuleIn(BaseModel):
     enabled: bool = True
 
 
-class RollbackIn(BaseModel):
+class RollbackIn(In):
     model_config = ConfigDict(extra="forbid", json_schema_extra={"examples": [{"to": 1}]})
 
     to: int = Field(..., ge=0)
 
 
-class TriedCandidate(BaseModel):
+class TriedCandidate(In):
     """What one candidate's estimate of the frame pair showed (nfex_core.verification.PairEvidence)."""
 
     model_config = ConfigDict(extra="forbid")
@@ -133,7 +149,7 @@ class TriedCandidate(BaseModel):
     rejected: str = Field("", description="Why the client's front-end checks or its geometry lost the pair (empty: they did not).")
 
 
-class VerdictRequest(BaseModel):
+class VerdictRequest(In):
     """The estimates of the frame pair tried so far, in the order of the proposals (send them one at a time or all at once)."""
 
     model_config = ConfigDict(

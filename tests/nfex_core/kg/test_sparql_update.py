@@ -17,7 +17,7 @@ from rdflib import Literal, URIRef
 from nfex_core.errors import BadInput, NfexError, ParseError
 from nfex_core.kg.backends import EmbeddedBackend
 from nfex_core.kg.changes import ChangeSet
-from nfex_core.kg.sparql_guard import ForbiddenOperation
+from nfex_core.kg.sparql_gate import ForbiddenOperation
 from nfex_core.kg.sparql_update import change_by_copy, change_of_update
 
 PREFIXES = "PREFIX ex: <http://example.org/> PREFIX xsd: <http://www.w3.org/2001/XMLSchema#>\n"
