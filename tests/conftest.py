@@ -23,6 +23,7 @@ from nfex_core.knowledge import open_graph
 
 REPO = Path(__file__).resolve().parent.parent
 BARE_HOME_FLAG = "NFEX_TEST_BARE_HOME"
+pytest_plugins = ["tests.require"]
 
 
 def _bare_home(dest: Path) -> Path:
@@ -290,12 +291,10 @@ def sparql_server(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[Sp
 
 @pytest.fixture(scope="session")
 def data_dir() -> Path:
-    """../shared/data (or $NFEX_DATA); tests that need real sequences skip where it is absent — or fail,
-    with NFEX_REQUIRE_DATA=1 (CI sets it: a missing data folder must not pass as a green build)."""
+    """../shared/data (or $NFEX_DATA); tests that need real sequences skip where it is absent — and fail under
+    NFEX_REQUIRE=all (CI sets it: a missing data folder must not pass as a green build)."""
     path = Settings.from_env().data
     if not path.is_dir():
-        if os.environ.get("NFEX_REQUIRE_DATA") == "1":
-            pytest.fail(f"dataset folder {path} is absent and NFEX_REQUIRE_DATA=1 (set NFEX_DATA)")
         pytest.skip(f"dataset folder {path} is absent (set NFEX_DATA)")
     return path
 
