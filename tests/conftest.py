@@ -15,6 +15,7 @@ from pathlib import Path
 
 import httpx
 import pytest
+from hypothesis import HealthCheck, settings
 
 from nfex_core.config import Settings
 from nfex_core.kg import KnowledgeGraph
@@ -24,6 +25,12 @@ from nfex_core.knowledge import open_graph
 REPO = Path(__file__).resolve().parent.parent
 BARE_HOME_FLAG = "NFEX_TEST_BARE_HOME"
 pytest_plugins = ["tests.require"]
+
+# The property tests behind "a carried compile equals a full compile" (rules/test_setup.py, rules/test_persisted.py,
+# evidence/test_index.py, evidence/test_view.py): 50 examples each, derandomised so that a failure in CI is the same
+# failure on any machine (Hypothesis derives the examples from the test's name instead of a random seed).
+CARRIED_EXAMPLES = settings(max_examples=50, derandomize=True, deadline=None,
+                            suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 
 
 def _bare_home(dest: Path) -> Path:
