@@ -45,7 +45,8 @@ sparql-servers:
 	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
 	    echo "installing virtuoso-opensource-7-bin for the remote-store tests"; \
 	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
-	      virtuoso-opensource-7-bin >/dev/null; \
+	      virtuoso-opensource-7-bin >/dev/null && command -v virtuoso-t >/dev/null \
+	      || { echo "installing virtuoso-opensource-7-bin did not give virtuoso-t" >&2; exit 1; }; \
 	  elif [ "$(NFEX_REQUIRE)" = all ]; then \
 	    echo "virtuoso-t is missing and cannot be installed here (needs root and apt-get); NFEX_REQUIRE=all" >&2; exit 1; \
 	  else echo "virtuoso-t is missing and cannot be installed here (needs root and apt-get): the Virtuoso tests will skip"; fi; \
@@ -75,7 +76,9 @@ browser:
 	@if ! command -v chromium >/dev/null 2>&1 && [ ! -x /usr/bin/chromium ]; then \
 	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
 	    echo "installing chromium for the browser tests"; \
-	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends chromium >/dev/null; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends chromium >/dev/null \
+	      && { command -v chromium >/dev/null || [ -x /usr/bin/chromium ]; } \
+	      || { echo "installing chromium did not give a chromium binary" >&2; exit 1; }; \
 	  elif [ "$(NFEX_REQUIRE)" = all ]; then \
 	    echo "chromium is missing and cannot be installed here (needs root and apt-get); NFEX_REQUIRE=all" >&2; exit 1; \
 	  else echo "chromium is missing and cannot be installed here (needs root and apt-get): the browser tests will skip"; fi; \
