@@ -1,6 +1,6 @@
 # Two entry points, both self-contained on a fresh machine with Python 3.11:
 #   make serve   install nFEX and run the service on the embedded store (seeded from ontology/ and rules/)
-#   make test    install nFEX with its test extras (and, as root, Virtuoso) and run the whole suite
+#   make test    install nFEX with its test extras (and, as root, Virtuoso and Chromium) and run the whole suite
 #   make docs    HTML documentation of the ontology (pyLODE) in out/docs/ontology/
 #   make cpp     the C++ client (clients/cpp) into CPP_BUILD; apt-installs what it needs first when missing
 #   make learned install the learned extractors (XFeat) and export the network to ONNX ahead of time
@@ -38,12 +38,19 @@ serve: install
 	$(BIN)/nfex serve --host $(HOST) --port $(PORT)
 
 # The remote-store tests run on `oxigraph serve` (pip, dev extra) and on Virtuoso: Debian's binary package alone
-# (no daemon started, no debconf); where it cannot be installed those tests skip and say why.
+# (no daemon started, no debconf). As root with apt-get it is installed, and a failed install stops make. Where it
+# cannot be installed (not root), the Virtuoso tests skip and say why, unless NFEX_REQUIRE=all (CI), which stops here.
 sparql-servers:
-	@command -v virtuoso-t >/dev/null || { [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null \
-	  && apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
-	     virtuoso-opensource-7-bin >/dev/null; } \
-	  || echo "virtuoso-t not installed: the Virtuoso store tests will skip (apt-get install virtuoso-opensource-7-bin)"
+	@if ! command -v virtuoso-t >/dev/null; then \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	    echo "installing virtuoso-opensource-7-bin for the remote-store tests"; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
+	      virtuoso-opensource-7-bin >/dev/null && command -v virtuoso-t >/dev/null \
+	      || { echo "installing virtuoso-opensource-7-bin did not give virtuoso-t" >&2; exit 1; }; \
+	  elif [ "$(NFEX_REQUIRE)" = all ]; then \
+	    echo "virtuoso-t is missing and cannot be installed here (needs root and apt-get); NFEX_REQUIRE=all" >&2; exit 1; \
+	  else echo "virtuoso-t is missing and cannot be installed here (needs root and apt-get): the Virtuoso tests will skip"; fi; \
+	fi
 
 test: install-dev sparql-servers browser
 	$(BIN)/python -m pytest -n 2 $(PYTEST_ARGS)
@@ -63,12 +70,17 @@ cpp:
 	cmake --build $(CPP_BUILD) -j $$(nproc 2>/dev/null || echo 2)
 
 # Debian's chromium for the workbench's browser tests (tests/service/test_ui.py, driven by Playwright without a
-# browser download). Installed only where it is missing and apt-get can run as root; elsewhere those tests skip.
+# browser download). Installed where it is missing and apt-get can run as root (a failed install stops make); elsewhere
+# those tests skip, unless NFEX_REQUIRE=all (CI), which stops here.
 browser:
 	@if ! command -v chromium >/dev/null 2>&1 && [ ! -x /usr/bin/chromium ]; then \
 	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
 	    echo "installing chromium for the browser tests"; \
-	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends chromium >/dev/null; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends chromium >/dev/null \
+	      && { command -v chromium >/dev/null || [ -x /usr/bin/chromium ]; } \
+	      || { echo "installing chromium did not give a chromium binary" >&2; exit 1; }; \
+	  elif [ "$(NFEX_REQUIRE)" = all ]; then \
+	    echo "chromium is missing and cannot be installed here (needs root and apt-get); NFEX_REQUIRE=all" >&2; exit 1; \
 	  else echo "chromium is missing and cannot be installed here (needs root and apt-get): the browser tests will skip"; fi; \
 	fi
 

@@ -1,5 +1,5 @@
 """The full read of the observations (a compile from scratch): branch queries on threads through ``Backend.values``
-against the same branches as one query read term by term (what stop 34 shipped), alternately on one store.
+against the same branches as one query read term by term (the earlier form of the read), alternately on one store.
 
     python bench/bench_observations.py [--size 300000] [--pairs 7] [--store FOLDER]
 

@@ -21,7 +21,8 @@ worker, symbolic advisor, reporter tokens, its own NFEX_COMPILED_CACHE) is start
 - compile per report: the same after one more report (the compile carries from the last table what the
   report cannot have touched: docs/architecture.md);
 - select p50/p99 idle, and during a stream of --reports feedback reports from --threads reporters
-  (bench_fleet.measure), with the reports/s of that stream;
+  (bench_fleet.measure), with the reports/s of that stream (acknowledged reports only; any failed report, select or
+  restart is printed and makes the script exit 1);
 - a SPARQL aggregate (windows and mean ATE per extractor) through nFEX's ``/sparql``, p50, against the same
   query sent straight to `oxigraph serve` holding the same data (the baseline of both rows).
 
@@ -330,10 +331,14 @@ def main() -> None:
     if args.rows is not None:
         args.rows.write_text(json.dumps([dataclasses.asdict(r) for r in rows], indent=1))
     for r in rows:
-        for e in r.errors[:3]:
-            print(f"  {r.triples:,} {r.mode}: a report failed: {e}")
+        for e in r.errors:
+            print(f"  {r.triples:,} {r.mode}: failed: {e}")
     if args.plot is not None:
         plot(rows, args.plot)
+    failed = {f"{r.triples:,} {r.mode}": len(r.errors) for r in rows if r.errors}
+    if failed:
+        print(f"\nFAILED: {failed}; these rows are not to be quoted", file=sys.stderr)
+        sys.exit(1)
 
 
 if __name__ == "__main__":

@@ -38,6 +38,7 @@ def test_compose_file_structure() -> None:
     assert (ROOT / "Dockerfile").exists()
 
 
+@pytest.mark.may_skip("no Docker daemon or compose plugin on the project's machines: the one declared exception")
 def test_docker_compose_config_accepts_it() -> None:
     docker = shutil.which("docker")
     if docker is None or subprocess.run([docker, "compose", "version"], capture_output=True).returncode != 0:

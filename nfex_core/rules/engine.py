@@ -332,7 +332,9 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
                 continue
             kept = {}
             for i, found_here in found.items():
-                for x, reason in found_here:
+                # in a fixed order: a store returns rows in an order of its own, and a carried compile's view is
+                # another store than a full compile's (their citations of one rule must come out the same)
+                for x, reason in sorted(found_here, key=lambda hit: (str(hit[0]), str(hit[1]))):
                     spec = vocab.by_iri.get(x)
                     if isinstance(spec, ExtractorSpec):
                         kept.setdefault(i, []).append((spec.name, Citation(str(rule.iri), rule.label, reason, "sparql", rule.source)))

@@ -1,6 +1,5 @@
 """DSL programs (``nfex:Program`` and their statements), through ``nfex_core.rules.dsl.programs``.
 
-The DSL is imported lazily: a build without it answers 501 on these routes and serves everything else.
 PUT parses, checks (names against the graph; errors carry line and column) and compiles the text, then
 replaces the program's statements as one SHACL-checked transaction (docs/dsl.md).
 """

@@ -47,7 +47,7 @@ SELECT_BODY = {
     openapi_extra=SELECT_BODY,
     response_model=Selection,
     response_model_exclude_unset=True,  # members as_dict() leaves out stay out
-    responses={**PROBLEM_RESPONSES, **problems(413, 415, 501)},
+    responses={**PROBLEM_RESPONSES, **problems(413, 415)},
 )
 async def select(request: Request, advisor: AdvisorDep, settings: SettingsDep,
                  consistency: Literal["snapshot", "latest"] = Query(

@@ -38,7 +38,7 @@ def get_session(session_id: str, sessions: SessionsDep) -> dict[str, Any]:
     summary="The next frame of a stream (multipart frame + optional context that overrides the session's)",
     response_model=SessionSelection,
     response_model_exclude_unset=True,
-    responses={**PROBLEM_RESPONSES, **problems(413, 415, 501)},
+    responses={**PROBLEM_RESPONSES, **problems(413, 415)},
     openapi_extra={"requestBody": {"required": True, "content": {"multipart/form-data": {"schema": {"type": "object", "properties": {
         "frame": {"type": "string", "format": "binary"}, "context": {"type": "string"}}}}}}},
 )

@@ -39,7 +39,6 @@ WHAT = {
     422: "Unknown names (with the allowed values), invalid values, or a SHACL violation (with the report)",
     429: "Too many sessions",
     500: "Internal error",
-    501: "Not part of this build",
     503: "Store unavailable or a query limit exceeded",
 }
 

@@ -54,7 +54,7 @@ class RuleTable(Out):
     rules: int
     contexts: int
     compile_ms: float = Field(..., description="How long its compile took (in the process that compiled it, when kept).")
-    kept: bool = Field(False, description="Read from the table kept on disk at the last stop (NFEX_COMPILED_CACHE), not compiled here.")
+    kept: bool = Field(False, description="Read from the table kept on disk at the previous shutdown (NFEX_COMPILED_CACHE), not compiled here.")
 
 
 class BackendStatus(Out):

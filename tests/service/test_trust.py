@@ -222,19 +222,21 @@ def test_no_update_input_is_a_500(svc: Service, text: str | bytes) -> None:
 
 
 # --- a dead writer on the shared store -----------------------------------------------------------
-def test_a_writer_killed_between_claim_and_commit_delays_the_next_write_at_most_5_s(
+def test_a_writer_killed_between_claim_and_commit_does_not_block_the_next_write(
     remote_service: Service, oxigraph_url: str, tmp_path: Path
 ) -> None:
+    """The service's next write commits once the dead writer's claim expires (its wait on the claim, bounded by the
+    claim's time to live, is tests/nfex_core/kg/test_crash.py's); a claim that never expired would end it in a 409
+    after CLAIM_WAIT_S."""
     proc = _writer(tmp_path, oxigraph_url, 3, stop=True)
     _wait_for(proc, "commit")  # it holds its claim on the next version and is about to commit
     proc.send_signal(signal.SIGKILL)
     proc.wait()
     before = remote_service.version()
-    t0 = time.monotonic()
-    r = update(remote_service, 'INSERT DATA { nfex:ORB rdfs:seeAlso "after a dead writer" }')
-    elapsed = time.monotonic() - t0
+    r = httpx.post(remote_service.url + "/sparql/update", content='INSERT DATA { nfex:ORB rdfs:seeAlso "after a dead writer" }',
+                   headers={**auth(EDITOR), "Content-Type": "application/sparql-update"}, timeout=60)
     assert r.status_code == 200, r.text
-    assert r.json()["version"] == before + 1 and elapsed <= 5.0, elapsed
+    assert r.json()["version"] == before + 1
 
 
 # --- CORS ---------------------------------------------------------------------------------------
@@ -272,10 +274,10 @@ def test_a_one_pixel_frame_is_a_400_not_a_500(svc: Service) -> None:
     assert "features need at least" in assert_problem(r, 400)["detail"]
 
 
-def test_a_rollback_to_version_0_is_refused_quickly_by_the_core_shape(svc: Service) -> None:
+def test_a_rollback_to_version_0_is_refused_by_the_core_shape(svc: Service) -> None:
+    """Found by the fuzzer: the core shape refuses it in a few ASKs, before the change is computed or validated
+    (KnowledgeGraph.commit's ``core_violations``)."""
     head = httpx.get(svc.url + "/v1/graph").json()
-    t0 = time.monotonic()
     doc = assert_problem(httpx.post(svc.url + "/v1/graph/rollback", json={"to": 0}, headers=auth(EDITOR), timeout=60), 422)
     assert any(v["source_shape"] == N + "CoreShape" for v in doc["violations"])
     assert httpx.get(svc.url + "/v1/graph").json() == head
-    print(f"rollback to 0 refused in {time.monotonic() - t0:.1f} s")  # was over 30 s in a fuzz run

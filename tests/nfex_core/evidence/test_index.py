@@ -10,13 +10,14 @@ from __future__ import annotations
 
 import random
 
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from nfex_core.evidence.index import ObservationIndex
 from nfex_core.feedback import Feedback, ReportWriter
 from nfex_core.kg import KnowledgeGraph
 from nfex_core.rules.engine import compile_table
+from tests.conftest import CARRIED_EXAMPLES
 
 PREFIXES = ("PREFIX nfex: <https://w3id.org/nfex#> PREFIX rdfs: <http://www.w3.org/2000/01/rdf-schema#> "
             "PREFIX xsd: <http://www.w3.org/2001/XMLSchema#> ")
@@ -70,7 +71,7 @@ def _same(a: ObservationIndex, b: ObservationIndex) -> None:
     assert dict(a.settings) == dict(b.settings)
 
 
-@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@CARRIED_EXAMPLES
 @given(ops=st.lists(st.sampled_from(OPS), min_size=1, max_size=3), seed=st.integers(0, 2**32 - 1))
 def test_the_carried_index_equals_a_full_read_after_random_changes(shipped_kg: KnowledgeGraph, ops: list[str], seed: int) -> None:
     rng = random.Random(seed)

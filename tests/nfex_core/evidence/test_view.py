@@ -8,7 +8,7 @@ from __future__ import annotations
 import io
 import random
 
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from nfex_core.evidence import TrustPolicy, admit
@@ -20,6 +20,7 @@ from nfex_core.kg import KnowledgeGraph
 from nfex_core.kg.footprint import Reach, anchors
 from nfex_core.rules import pruning
 from nfex_core.rules.engine import compile_table
+from tests.conftest import CARRIED_EXAMPLES
 
 from .test_index import OPS, PREFIXES, _apply
 
@@ -54,7 +55,7 @@ def _trust(kg: KnowledgeGraph, rng: random.Random) -> None:
               "WHERE { OPTIONAL { nfex:minSources nfex:value ?n } }", author="pytest")
 
 
-@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@CARRIED_EXAMPLES
 @given(ops=st.lists(st.sampled_from((*OPS, "trust", "trust")), min_size=1, max_size=4), seed=st.integers(0, 2**32 - 1))
 def test_an_advanced_view_equals_a_fresh_view_after_random_changes(shipped_kg: KnowledgeGraph, ops: list[str], seed: int) -> None:
     rng = random.Random(seed)

@@ -77,7 +77,7 @@ SN_OK = sn(0.9, 0.05)
         ({"paramnet": PN_OK, "selectornet": sn(0.6, 0.05)}, {"selectornet"}),  # ties the best constant's accuracy
         ({"paramnet": PN_OK, "selectornet": sn(0.9, 0.25)}, {"selectornet"}),  # more often right, but loses more ATE
         ({"paramnet": PN_OK, "selectornet": sn(0.9, 0.05, acc_l=0.95)}, {"selectornet"}),  # the lookup is better
-        # the shipped model of stop 29: 0.75 against the majority's 0.00, while always SIFT scored 1.00
+        # 0.75 against the majority's 0.00, while always SIFT scored 1.00 (a model that once shipped)
         ({"paramnet": PN_OK, "selectornet": {"val_accuracy": 0.75, "val_accuracy_majority": 0.0, "majority": "ORB"}}, {"selectornet"}),
         ({"paramnet": {**PN_OK, "val_mse": 0.05}, "selectornet": SN_OK}, {"paramnet"}),  # ties the best constant
         ({"paramnet": {**PN_OK, "val_mse": 0.045}, "selectornet": SN_OK}, {"paramnet"}),  # beats the constant, not the lookup
@@ -86,8 +86,8 @@ SN_OK = sn(0.9, 0.05)
     ],
 )
 def test_a_network_must_beat_the_constant_and_the_lookup(trained, metrics, gated) -> None:  # type: ignore[no-untyped-def]
-    """Regression: the shipped SelectorNet of stop 29 passed a gate against the training majority (ORB,
-    0.00) although a constant SIFT scored 1.00 against its 0.75 on the same windows."""
+    """Regression: a SelectorNet passed a gate against the training majority (ORB, 0.00) although a constant
+    SIFT scored 1.00 against its 0.75 on the same windows."""
     _, model = trained
     model = NeuralModel(**{**model.__dict__, "manifest": {**model.manifest, "metrics": metrics}})
     assert set(model.validation_gates()) == gated

@@ -9,7 +9,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from nfex_core.feedback import ReportWriter
@@ -18,6 +18,7 @@ from nfex_core.knowledge import open_graph
 from nfex_core.rules import persisted
 from nfex_core.rules.engine import RuleEngine, backend_citations, compile_table
 from nfex_core.rules.persisted import CompiledCache, store_key
+from tests.conftest import CARRIED_EXAMPLES
 
 from ..evidence.test_index import OPS, _apply
 from .test_setup import CONFIGURATION, _configure, _same
@@ -43,7 +44,7 @@ def test_a_kept_table_answers_as_a_fresh_compile(shipped_kg: KnowledgeGraph, tmp
     _same(kept, compile_table(shipped_kg))
 
 
-@settings(max_examples=5, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@CARRIED_EXAMPLES
 @given(ops=st.lists(st.sampled_from((*OPS, *CONFIGURATION)), min_size=1, max_size=3), seed=st.integers(0, 2**32 - 1))
 def test_compiles_carried_from_a_kept_table_equal_full_compiles(shipped_kg: KnowledgeGraph, tmp_path_factory: pytest.TempPathFactory,
                                                                  ops: list[str], seed: int) -> None:

@@ -7,9 +7,8 @@ evidence only keeps the configuration stage, and one of configuration reads it a
 from __future__ import annotations
 
 import random
-import time
 
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from nfex_core.feedback import Feedback, ReportWriter
@@ -21,6 +20,7 @@ from nfex_core.rules import pruning
 from nfex_core.rules.dsl.programs import compile_text
 from nfex_core.rules.engine import RuleTable, compile_table
 from nfex_core.rules.setup import Setup
+from tests.conftest import CARRIED_EXAMPLES
 
 from ..evidence.test_index import OPS, PREFIXES, _apply
 from ..evidence.test_view import _trust
@@ -53,7 +53,7 @@ def _same(carried: RuleTable, full: RuleTable) -> None:
         assert carried.measured(c) == full.measured(c)
 
 
-@settings(max_examples=6, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+@CARRIED_EXAMPLES
 @given(ops=st.lists(st.sampled_from((*OPS, *CONFIGURATION)), min_size=1, max_size=4), seed=st.integers(0, 2**32 - 1))
 def test_a_carried_compile_equals_a_full_compile_after_random_changes(shipped_kg: KnowledgeGraph, ops: list[str], seed: int) -> None:
     rng = random.Random(seed)
@@ -230,18 +230,26 @@ def test_types_read_after_later_commits_are_taken_back_to_the_changes_version(sh
 def test_under_a_stream_of_reports_each_compile_carries_the_last(shipped_kg: KnowledgeGraph, monkeypatch) -> None:  # type: ignore[no-untyped-def]
     """Regression: a compile that saw a commit land while it ran gave its view version −1, so under a stream
     every compile dumped the graph again and read its configuration again. A compile is now pinned to the
-    version it started at: the view is advanced and the configuration stage carried while reports land
-    (each compile here is slowed by 0.1 s, so that commits do land in it; the stream goes on until three compiles ran
-    beside it, as commits got fast enough that 24 reports could end within two)."""
+    version it started at: the view is advanced and the configuration stage carried while reports land.
+    Each compile's read of the evidence waits for the stream's next commit (``KnowledgeGraph.on_commit``), so a
+    commit lands inside every compile while the stream runs; the stream goes on until three compiles ran."""
     import threading
 
     from nfex_core.evidence.index import ObservationIndex
 
+    done, enough, committed = threading.Event(), threading.Event(), threading.Event()
+    shipped_kg.on_commit(lambda version: committed.set())
     advance = ObservationIndex.advance
-    monkeypatch.setattr(ObservationIndex, "advance", lambda self, *a: time.sleep(0.1) or advance(self, *a))
+
+    def after_a_commit(self: ObservationIndex, *a):  # type: ignore[no-untyped-def]
+        committed.clear()
+        if not done.is_set():  # the stream's end sets ``committed`` after ``done``: no wait is left hanging
+            assert committed.wait(60), "no commit landed: the stream stopped"
+        return advance(self, *a)
+
+    monkeypatch.setattr(ObservationIndex, "advance", after_a_commit)
     table = compile_table(shipped_kg)
     first = table.setup
-    done, enough = threading.Event(), threading.Event()
     writer = ReportWriter(shipped_kg, max_items=4)
 
     def stream() -> None:
@@ -252,6 +260,7 @@ def test_under_a_stream_of_reports_each_compile_carries_the_last(shipped_kg: Kno
                 _report(writer, f"r{i % 2}")
         finally:
             done.set()
+            committed.set()
 
     thread = threading.Thread(target=stream)
     thread.start()

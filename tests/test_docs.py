@@ -1,0 +1,126 @@
+"""The documents name what exists: every repository path, ``make`` target and ``nfex`` command named in README.md
+and docs/*.md is checked against the tree, the Makefile and the CLI's own command tree (typer's), and the README's
+configuration table lists every ``NFEX_*`` variable the code reads. A rename cannot leave a stale document.
+
+What counts as a repository path: a path (in a code span, a code block or a Markdown link) that starts with one of
+the repository's top-level folders, or a Markdown link relative to the document. The documents also name modules
+relative to their package (``rules/engine.py`` for ``nfex_core/rules/engine.py``): such a path counts when it
+exists in one of the packages. Build products (``out/``, ``…/build/``), the data folder (``../shared/data``,
+``$NFEX_DATA``) and placeholders (``<…>``, ``…``) are not checked.
+"""
+from __future__ import annotations
+
+import glob
+import re
+from pathlib import Path
+
+import pytest
+import typer
+
+from nfex_core.cli.main import app
+from service.config import Settings as ServiceSettings
+
+REPO = Path(__file__).resolve().parent.parent
+DOCS = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
+TOP = tuple(sorted(p.name for p in REPO.iterdir() if not p.name.startswith(".") and p.name not in {"out", "build"}))
+FENCE = re.compile(r"```[^\n]*\n(.*?)```", re.S)
+SPAN = re.compile(r"`([^`\n]+)`")
+LINK = re.compile(r"\]\(([^)\s#]+)(?:#[^)]*)?\)")
+PATH = re.compile(r"(?<![\w./$~-])((?:" + "|".join(re.escape(t) for t in TOP) + r")(?:/[\w.*@+-]+)+/?)")
+MAKE = re.compile(r"(?<![\w-])make ((?:[a-z][\w-]*)(?: [a-z][\w-]*)*)")
+NFEX = re.compile(r"(?:^|[\s|;(&`$])nfex ([a-z][\w-]*)(?: ([a-z][\w-]*))?")
+
+
+def _code(text: str) -> list[str]:
+    """The document's code: fenced blocks and inline spans."""
+    blocks = FENCE.findall(text)
+    rest = FENCE.sub("", text)
+    return blocks + SPAN.findall(rest)
+
+
+def _paths(doc: Path) -> set[str]:
+    text = doc.read_text()
+    found = {m for chunk in _code(text) for m in PATH.findall(chunk)}
+    for link in LINK.findall(text):
+        if "://" in link or link.startswith("mailto:"):
+            continue
+        found.add(str((doc.parent / link).resolve().relative_to(REPO)) if (doc.parent / link).resolve().is_relative_to(REPO)
+                  else link)
+    return {p.rstrip("/.,;:") for p in found if "…" not in p and "<" not in p and "/build/" not in p}
+
+
+PACKAGES = ("", "nfex_core/", "service/", "clients/slam/nfex_slam/", "clients/python/nfex_client/")
+
+
+def _exists(path: str) -> bool:
+    return any(glob.glob(str(REPO / (package + path)), recursive=True) for package in PACKAGES)
+
+
+def _make_targets() -> set[str]:
+    return set(re.findall(r"^([a-z][\w-]*):", (REPO / "Makefile").read_text(), re.M))
+
+
+def _commands() -> dict[str, set[str]]:
+    """``nfex``'s commands: each top-level name with its subcommands (empty for a plain command)."""
+    root = typer.main.get_command(app)
+    return {name: set(getattr(cmd, "commands", {})) for name, cmd in getattr(root, "commands", {}).items()}
+
+
+@pytest.mark.parametrize("doc", DOCS, ids=lambda p: p.name)
+def test_every_repository_path_named_exists(doc: Path) -> None:
+    missing = sorted(p for p in _paths(doc) if not _exists(p))
+    assert not missing, f"{doc.relative_to(REPO)} names paths that do not exist: {missing}"
+
+
+@pytest.mark.parametrize("doc", DOCS, ids=lambda p: p.name)
+def test_every_make_target_named_exists(doc: Path) -> None:
+    targets = _make_targets()
+    named = {t for chunk in _code(doc.read_text()) for m in MAKE.findall(chunk) for t in m.split()}
+    assert not named - targets, f"{doc.relative_to(REPO)} names make targets the Makefile lacks: {sorted(named - targets)}"
+
+
+@pytest.mark.parametrize("doc", DOCS, ids=lambda p: p.name)
+def test_every_nfex_command_named_exists(doc: Path) -> None:
+    commands = _commands()
+    wrong = []
+    for chunk in _code(doc.read_text()):
+        for first, second in NFEX.findall(chunk):
+            if first not in commands:
+                wrong.append(f"nfex {first}")
+            elif commands[first] and second and second not in commands[first]:
+                wrong.append(f"nfex {first} {second}")
+    assert not wrong, f"{doc.relative_to(REPO)} names nfex commands that do not exist: {sorted(set(wrong))}"
+
+
+def _variables_read() -> set[str]:
+    """``NFEX_*`` names in the code that reads settings (core, service, CLI, the test switch), and the service's
+    settings fields (pydantic-settings reads ``NFEX_<FIELD>``)."""
+    names: set[str] = set()
+    for folder in ("nfex_core", "service", "tests"):
+        for source in (REPO / folder).rglob("*.py"):
+            names |= set(re.findall(r"[\"'](NFEX_[A-Z0-9_]+)[\"']", source.read_text()))
+    names |= {f"NFEX_{field.upper()}" for field in ServiceSettings.model_fields}
+    # the suite's own bookkeeping between its processes; the ontology's IRI (a constant, not a variable)
+    return names - {"NFEX_TEST_BARE_HOME", "NFEX_ONTOLOGY"}
+
+
+def test_the_readme_configuration_table_lists_every_variable_the_code_reads() -> None:
+    readme = (REPO / "README.md").read_text()
+    table = readme[readme.index("## Configuration"):]
+    table = table[: table.index("\n## ", 1)]
+    listed = set(re.findall(r"NFEX_[A-Z0-9_]+", table))
+    assert not _variables_read() - listed, f"README's configuration table lacks: {sorted(_variables_read() - listed)}"
+
+
+def test_the_checks_can_fail(tmp_path: Path) -> None:
+    """A stale name is caught by each check."""
+    doc = REPO / "docs" / "_stale_check.md"
+    doc.write_text("`nfex_core/nothing_here.py`, [gone](img/none.png), `make nothing-here`, `nfex kg frobnicate`, `nfex nope`\n")
+    try:
+        assert {"nfex_core/nothing_here.py", "docs/img/none.png"} <= {p for p in _paths(doc) if not _exists(p)}
+        with pytest.raises(AssertionError, match="nothing-here"):
+            test_every_make_target_named_exists(doc)
+        with pytest.raises(AssertionError, match=r"nfex kg frobnicate.*nfex nope"):
+            test_every_nfex_command_named_exists(doc)
+    finally:
+        doc.unlink()
