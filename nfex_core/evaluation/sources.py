@@ -70,15 +70,15 @@ def read_manifest(manifest: Path, data: Path) -> list[Source]:
     if not isinstance(entries, list) or not entries:
         raise BadInput(f"{manifest}: no [[sequence]] tables")
     out = []
-    for i, e in enumerate(entries, start=1):
-        unknown = set(e) - _KEYS
-        if unknown or "path" not in e:
+    for i, entry in enumerate(entries, start=1):
+        unknown = set(entry) - _KEYS
+        if unknown or "path" not in entry:
             raise BadInput(f"{manifest}: sequence {i} needs a path and takes only {', '.join(sorted(_KEYS))}"
                            + (f" (unknown: {', '.join(sorted(unknown))})" if unknown else ""))
-        step = e.get("step", 1)
+        step = entry.get("step", 1)
         if not isinstance(step, int) or step < 1:
             raise BadInput(f"{manifest}: sequence {i}: step must be a whole number ≥ 1")
-        p = Path(str(e["path"]))
-        out.append(Source(p if p.is_absolute() else data / p, str(e.get("format", "kitti")),
-                          None if e.get("sequence") is None else str(e["sequence"]), step))
+        p = Path(str(entry["path"]))
+        out.append(Source(p if p.is_absolute() else data / p, str(entry.get("format", "kitti")),
+                          None if entry.get("sequence") is None else str(entry["sequence"]), step))
     return out
