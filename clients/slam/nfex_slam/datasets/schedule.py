@@ -157,7 +157,7 @@ class ScheduledSequence(Sequence):
         self.dataset, self.name = base.dataset, base.name
         self.intrinsics, self.context = base.intrinsics, dict(base.context)
         # one lazily corrupted view per corruption, over the whole base (motion blur sees true neighbours)
-        self._views: dict[str, Sequence] = {
+        self._views: dict[str, CorruptedSequence] = {
             c: CorruptedSequence(base, c, severity, seed) for c in {s.corruption for s in schedule.segments} if c != "none"
         }
 
