@@ -162,14 +162,17 @@ def markdown(ev: Evaluation) -> str:
 def _segment_table(ev: Evaluation, condition: str) -> list[str]:
     assert ev.schedule is not None
     segs = [s.label for s in ev.schedule.segments]
-    lines = ["Per segment, mean ATE (m) over runs of the segment's frames (one Sim(3) alignment of the whole run):", "",
+    lines = ["Per segment, mean over runs of the pose AUC@10° of the segment's pairs / the ATE (m) of its frames (one "
+             "Sim(3) alignment of the whole run):", "",
              "| Method | " + " | ".join(segs) + " |", "|" + "---|" * (len(segs) + 1)]
     for key in ev.keys():
         recs = [r for r in ev.by_key(key, condition) if r.segments]
         if recs:
             cells = [_num(summary([next(x["ate"] for x in r.segments if x["segment"] == s) for r in recs]).mean)
                      for s in segs]
-            lines.append(f"| {display(key)} | " + " | ".join(cells) + " |")
+            auc = [_num(summary([next(x.get("auc10") for x in r.segments if x["segment"] == s) for r in recs]).mean)
+                   for s in segs]
+            lines.append(f"| {display(key)} | " + " | ".join(f"{a} / {c}" for a, c in zip(auc, cells, strict=True)) + " |")
     return lines
 
 

@@ -73,7 +73,7 @@ def test_nfex_evaluate_pools_several_sequences_and_a_manifest(cli_env: dict[str,
     labels = ["kitti/01", "kitti/07", "handheld/checkerboard"]
     assert doc["sequence_labels"] == labels and list(doc["sequences"]) == labels and doc["schedule"].endswith("@0.3-0.9")
     seven = doc["sequences"]["kitti/07"]
-    assert seven["frames"] == 5 and "kitti_07" in seven["evidence"]
+    assert seven["frames"] == 5 and "kitti_07" in seven["evidence"] and "kitti_01" not in seven["evidence"]  # LOSO
     fig = seven["methods"]["orb-default"]["by_condition"]["schedule"]["figures"]
     assert len(fig["auc10"]["runs"]) == 2 and all(0 <= v <= 1 for v in fig["auc10"]["runs"])
     pooled = doc["pooled"]["conditions"]["schedule"]
