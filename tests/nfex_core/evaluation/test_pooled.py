@@ -5,6 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from nfex_core.errors import BadInput
 from nfex_core.evaluation import Evaluation, RunRecord
@@ -82,3 +84,25 @@ def test_a_bad_manifest_names_what_is_wrong(tmp_path: Path, text: str, says: str
         read_manifest(m, tmp_path)
     with pytest.raises(BadInput, match="cannot read"):
         read_manifest(tmp_path / "gone.toml", tmp_path)
+
+
+@settings(max_examples=30, deadline=None)
+@given(scales=st.lists(st.floats(0.01, 1000.0), min_size=2, max_size=4), noise=st.integers(0, 10_000))
+def test_the_pooled_ate_comparison_does_not_depend_on_each_sequences_metres(scales: list[float], noise: int) -> None:
+    """Multiplying every ATE of a sequence by a constant (a longer drive, other units) changes no pooled figure."""
+    import numpy as np
+
+    def study(factors: list[float]) -> Study:
+        evs = []
+        for i, f in enumerate(factors):
+            ev = _ev(f"{i:02d}", 1.0, runs=3)
+            for r in ev.records:
+                r.ate_rmse = f * (r.ate_rmse or 0) * float(np.random.default_rng((noise, i, r.run, len(r.method))).uniform(0.7, 1.3))
+            evs.append(ev)
+        return Study(evs)
+
+    a = pooled_figure(study([1.0] * len(scales)), "nfex", "none", BY_NAME["ate"])
+    b = pooled_figure(study(scales), "nfex", "none", BY_NAME["ate"])
+    assert a["reference"] == b["reference"] and a["mean"] == pytest.approx(b["mean"], rel=1e-9)
+    va, vb = a["vs_best_static"], b["vs_best_static"]
+    assert va["p_wilcoxon"] == pytest.approx(vb["p_wilcoxon"]) and va["relative"] == pytest.approx(vb["relative"], rel=1e-9)
