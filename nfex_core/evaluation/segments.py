@@ -7,9 +7,11 @@ position errors e_i and, with its scale, the per-pair relative translation error
 
 - ATE = RMSE(e_i) over all frames; RPE = RMSE(r_k) over all pairs;
 - a segment's ATE = RMSE(e_i) over its frames, its RPE = RMSE(r_k) over the pairs inside it;
+- a segment's lost and coasted pairs (``outcomes``) and, with the run's front-end figures, the pose AUC at
+  10° of its pairs;
 - a transition pair (k−1, k), k the first frame of a segment: its r_k, its rotation and direction errors
-  against the ground truth (``motion.pair_errors``), the configuration that measured it, and whether
-  it was lost or rejected by the front-end checks.
+  against the ground truth (``motion.pair_errors``), the configuration that measured it, whether it was
+  tracked, and its outcome.
 
 A segment's ATE under the global alignment says how much of the run's ATE accrued there: the frames of
 a segment also carry the drift that earlier segments left.
