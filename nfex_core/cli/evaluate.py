@@ -18,7 +18,7 @@ def evaluate(
     format: Annotated[str, typer.Option("--format", help="kitti | euroc | tum | handheld")] = "kitti",
     sequence: Annotated[list[str], typer.Option("--sequence", help="Sequence id (KITTI: 01); repeat or comma-separate "
                         "for several, evaluated one by one and pooled.")] = [],  # noqa: B006
-    manifest: Annotated[Path | None, typer.Option("--manifest", help="A TOML file of [[sequence]] tables (path, format, "
+    manifest: Annotated[Path | None, typer.Option("--manifest", help="A TOML file of \\[\\[sequence]] tables (path, format, "
                         "sequence, step) joining sequences of other datasets (docs/experiments.md).")] = None,
     methods: Annotated[list[str], typer.Option("--methods", "-m", help="Methods (repeatable or comma-separated): "
                        "<extractor>-default, <extractor>-dyn for every extractor in the graph, tuned-static, nfex. "
