@@ -33,7 +33,8 @@ def sweep(
     severity: Annotated[list[float], typer.Option(help="Corruption severity in [0, 1]; repeat for several (each "
                         "corruption and schedule at each).")] = [0.7],  # noqa: B006
     schedule: Annotated[list[str], typer.Option("--schedule", help="A condition schedule over each whole sequence, e.g. "
-                        "none:0-49,dark:50-99,motion_blur:100-149,overexposed:150-199 (repeatable).")] = [],  # noqa: B006
+                        "none:0-49,dark:50-99@0.2-0.9,motion_blur:100-149@0.5,overexposed:150-199 (repeatable; @S a "
+                        "segment's own severity, @S0-S1 a linear ramp, none: --severity).")] = [],  # noqa: B006
     checks: Annotated[bool, typer.Option("--checks/--no-checks", help="The front-end checks of the sequence's agent.")] = True,
     window: Annotated[int, typer.Option(help="Frames per window.")] = 20,
     stride: Annotated[int, typer.Option(help="Frames between window starts.")] = 50,

@@ -1,6 +1,7 @@
-"""Plots of an evaluation (matplotlib, imported here only): trajectories against the ground truth, mean ATE
-with its 95 % interval per method and condition, the configuration nFEX ran per frame against the schedule,
-and accuracy against cost."""
+"""Plots of an evaluation (matplotlib, imported here only): trajectories against the ground truth, the front-end
+figures (pose AUC@5/10/20° with 95 % intervals per method and condition; the cumulative pair-error curves of
+run 0), mean ATE with its 95 % interval per method and condition, the configuration nFEX ran per frame against
+the schedule, and accuracy against cost."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -52,8 +53,9 @@ def draw(ev: Evaluation, out: Path) -> list[Path]:
     ax.set_title(f"{ev.dataset} {ev.sequence} ({cond}), run 0: trajectories, Sim(3)-aligned")
     ax.legend(fontsize=7)
     written.append(_save(fig, out / "trajectories.png"))
-    # mean ATE with 95 % intervals per method and condition
     keys = ev.keys()
+    written += _frontend_plots(ev, out, cond)
+    # mean ATE with 95 % intervals per method and condition
     fig, ax = plt.subplots(figsize=(max(8, 0.6 * len(keys)), 4))
     width = 0.8 / max(len(ev.conditions), 1)
     for j, c in enumerate(ev.conditions):
@@ -109,6 +111,44 @@ def draw(ev: Evaluation, out: Path) -> list[Path]:
     ax.set_title(f"accuracy against cost ({cond})")
     written.append(_save(fig, out / "accuracy_vs_cost.png"))
     return written
+
+
+def _frontend_plots(ev: Evaluation, out: Path, cond: str) -> list[Path]:
+    import matplotlib.pyplot as plt
+
+    from .figures import BY_NAME
+
+    keys = ev.keys()
+    fig, axes = plt.subplots(1, 3, figsize=(max(12, 1.2 * len(keys)), 4), sharey=True)
+    width = 0.8 / max(len(ev.conditions), 1)
+    for ax, name in zip(axes, ("auc5", "auc10", "auc20"), strict=True):
+        for j, c in enumerate(ev.conditions):
+            sums = [summary(ev.values(k, c, BY_NAME[name])) for k in keys]
+            means = [s.mean if s.mean is not None else 0.0 for s in sums]
+            err = np.array([[s.mean - s.ci95[0], s.ci95[1] - s.mean] if s.ci95 and s.mean is not None else [0, 0]
+                            for s in sums]).T
+            ax.bar(np.arange(len(keys)) + j * width, means, width, yerr=err, capsize=2, label=c)
+        ax.set_xticks(np.arange(len(keys)) + 0.4 - width / 2)
+        ax.set_xticklabels([display(k) for k in keys], fontsize=7, rotation=45, ha="right")
+        ax.set_title(BY_NAME[name].title)
+    axes[0].set_ylabel("pose AUC (mean over runs, 95 % CI)")
+    axes[0].legend(fontsize=8)
+    paths = [_save(fig, out / "pose_auc.png")]
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for key in keys:
+        recs = [r for r in ev.by_key(key, cond) if r.front is not None]
+        if recs:
+            e = np.sort(recs[0].front.error_deg)  # type: ignore[union-attr]
+            ax.step(e, np.arange(1, e.size + 1) / e.size, where="post", label=display(key),
+                    lw=2 if key.startswith(NFEX) else 1)
+    ax.set_xlim(0, 30)
+    ax.set_ylim(0, 1)
+    ax.set_xlabel("pair error max(rotation, direction) (°); lost or coasted pairs at 180°")
+    ax.set_ylabel("share of pairs")
+    ax.set_title(f"cumulative pair error ({cond}, run 0)")
+    ax.legend(fontsize=7)
+    paths.append(_save(fig, out / "pair_errors.png"))
+    return paths
 
 
 def _save(fig: object, path: Path) -> Path:

@@ -11,10 +11,15 @@
   graph (``motion.StepChecks``), unless ``checks`` is False.
 - **Oracles** (``oracle``): the hindsight choices over the static methods' own pair estimates (``oracle``).
 
-Per run: ATE and RPE (Sim(3), evo ``-as``), per segment and per transition pair under a schedule, lost
-and rejected pairs (and, for a verifying method, the pairs verification sent to the motion prior), candidates
+- **The motion-prior control** (``outcomes``): in every condition and run, the first tracked step of the first
+  static method repeated at constant velocity — what coasting alone gives.
+
+Per run: the front-end figures (pose AUC at 5/10/20°, the ATE with ground-truth step lengths; ``outcomes``),
+ATE and RPE (Sim(3), evo ``-as``), per segment and per transition pair under a schedule, lost and coasted
+pairs (coasted: rejected by the front-end checks, or sent to the motion prior by verification), candidates
 tried per pair (mean and max), extraction ms per frame (mean and max: what a budget bounds, every try and the
 re-extraction on a switch included), matching ms, and the cost model's expected ms of the configurations run.
+A run fails on loss beyond 30 % of its pairs or coasting beyond ``nfex:maxCoastedFraction`` (``outcomes``).
 """
 from __future__ import annotations
 
@@ -31,8 +36,10 @@ from nfex_slam.vo import VOParams, VOResult, run_vo
 
 from ..identity import sequence_iri
 from ..kg.scope import EvidenceScope, scoped_graph
+from .figures import ATE, Figure, rank
 from .methods import NFEX, ORACLES, TUNED, AdvisorChooser, DynChooser, chooser_for, static_methods
 from .oracle import per_pair, per_segment, replay
+from .outcomes import MOTION_PRIOR, FrontEnd, Outcomes, frontend, max_coasted_fraction, motion_prior
 from .segments import by_segment, run_errors, transitions
 
 if TYPE_CHECKING:
@@ -47,8 +54,8 @@ class RunRecord:
     ate_rmse: float | None
     rpe_rmse: float | None
     failed: bool
-    lost: int
-    rejected: int  # pairs the front-end checks rejected (counted in lost too)
+    lost: int  # pairs the geometry lost (coasted pairs are not counted)
+    rejected: int  # pairs the front-end checks rejected (counted in coasted)
     frames: int
     extraction_ms: float  # mean per frame
     extraction_max_ms: float
@@ -59,11 +66,15 @@ class RunRecord:
     budget_ms: float | None = None
     tries: float = 1.0  # candidates tried per frame pair, mean (verification; 1 without)
     tries_max: int = 1
-    fell_back: int = 0  # pairs verification sent to the motion prior (counted in lost too)
+    fell_back: int = 0  # pairs verification sent to the motion prior (counted in coasted)
     segments: list[dict[str, Any]] = field(default_factory=list)
     transitions: list[dict[str, Any]] = field(default_factory=list)
     result: VOResult | None = field(default=None, repr=False)
     selections: list[dict[str, Any]] = field(default_factory=list, repr=False)
+    coasted: int = 0  # pairs that fell back to the motion prior (front-end checks or verification)
+    auc: dict[float, float] = field(default_factory=dict)  # pose AUC by threshold (degrees)
+    frontend_ate: float | None = None  # ATE with ground-truth step lengths, SE(3)
+    front: FrontEnd | None = field(default=None, repr=False)
 
     @property
     def ms_per_frame(self) -> float:
@@ -88,6 +99,12 @@ class Evaluation:
     checks: str = "off"
     scope: str = ""
     static: list[str] = field(default_factory=list)
+    max_coasted: float | None = None  # nfex:maxCoastedFraction as read from the graph
+    control: str = ""  # where the motion-prior control's step comes from
+
+    @property
+    def label(self) -> str:
+        return f"{self.dataset}/{self.sequence}"
 
     def keys(self) -> list[str]:
         return list(dict.fromkeys(r.key for r in self.records))
@@ -109,14 +126,19 @@ class Evaluation:
         """Run r's ATE at index r (None: failed)."""
         return [None if r.failed else r.ate_rmse for r in self.by_key(key, condition)]
 
+    def values(self, key: str, condition: str, figure: Figure) -> list[float | None]:
+        """Run r's value of ``figure`` at index r (None: the run has none)."""
+        return [figure.of(r) for r in self.by_key(key, condition)]
+
     @staticmethod
     def mean_ate(records: Seq[RunRecord]) -> float | None:
         ok = [r.ate_rmse for r in records if not r.failed and r.ate_rmse is not None]
         return float(np.mean(ok)) if ok else None
 
-    def best_static(self, condition: str, budget: float | None = None) -> str | None:
-        """The static method with the fewest failed runs, then the lowest mean ATE; under a budget only
-        those whose expected extraction ms per frame (the cost model's, the advisor's criterion) fits it."""
+    def best_static(self, condition: str, budget: float | None = None, figure: Figure = ATE) -> str | None:
+        """The static method best by ``figure`` (``figures.rank``: for ATE the fewest failed runs, then the
+        lowest mean); under a budget only those whose expected extraction ms per frame (the cost model's, the
+        advisor's criterion) fits it."""
         best: tuple[int, float, str] | None = None
         for m in self.static:
             recs = self.by_key(m, condition)
@@ -126,10 +148,10 @@ class Evaluation:
                 exp = [r.expected_ms for r in recs]
                 if any(e is None for e in exp) or float(np.mean([e for e in exp if e is not None])) > budget:
                     continue
-            mean = self.mean_ate(recs)
-            rank = (sum(r.failed for r in recs), mean if mean is not None else float("inf"), m)
-            if best is None or rank < best:
-                best = rank
+            ok = [v for v in (figure.of(r) for r in recs) if v is not None]
+            key = (*rank(figure, sum(r.failed for r in recs), float(np.mean(ok)) if ok else None), m)
+            if best is None or key < best:
+                best = key
         return best[2] if best is not None else None
 
 
@@ -146,9 +168,11 @@ def evaluate(
     schedule: str | None = None,
     checks: bool = True,
     oracle: bool = False,
+    control: bool = True,
     progress: bool = False,
 ) -> Evaluation:
-    """Run every method (and nFEX at each budget) on ``sequence`` under each condition, ``runs`` paired times."""
+    """Run every method (and nFEX at each budget) on ``sequence`` under each condition, ``runs`` paired times;
+    with ``control``, the motion-prior control beside them."""
     from ..advisor import Advisor
     from ..rules.engine import RuleEngine
     from ..vision.registry import ExtractorRegistry
@@ -167,22 +191,29 @@ def evaluate(
     static = [m for m in methods if m in static_methods(vocab)]
     jobs: list[tuple[str, float | None]] = [(m, None) for m in methods] + [(NFEX, b) for b in budgets]
     n_oracle = len(ORACLES) if oracle and static else 0
+    prior_from = (static or [m for m in methods] or [NFEX])[0] if control and jobs else None
     bar = None
     if progress:
         from tqdm import tqdm
 
-        bar = tqdm(total=len(conditions) * runs * (len(jobs) + n_oracle), desc="evaluate", unit="run")
-    trial = _Trial(registry, step_checks, seq, sched, _ExpectedCost(vocab, table), bar)
+        bar = tqdm(total=len(conditions) * runs * (len(jobs) + n_oracle), desc=f"evaluate {seq.dataset}/{seq.name}",
+                   unit="run")
+    trial = _Trial(registry, step_checks, seq, sched, _ExpectedCost(vocab, table), bar, max_coasted_fraction(view))
     context = {k: v for k, v in seq.context.items() if v}
     for condition in conditions:
         for r in range(runs):
             trial.start(condition, r, under(seq, condition, severity, r, sched))
             static_runs: dict[str, VOResult] = {}
+            prior_source: VOResult | None = None
             for method, budget in jobs:
                 chooser, note = chooser_for(method, vocab, table, advisor, context, budget)
                 rec = trial.measure(method, chooser, note, budget)
                 if method in static and rec.result is not None:
                     static_runs[method] = rec.result
+                if method == prior_from and budget is None:
+                    prior_source = rec.result
+            if prior_source is not None:
+                trial.control(motion_prior(prior_source), f"the first tracked step of {prior_from}, at constant velocity")
             if n_oracle:
                 fallback = min(static_runs, key=lambda m: (trial.ate_or_inf(m), m))
                 seg_choices, taken = per_segment(static_runs, sched, fallback)
@@ -195,15 +226,18 @@ def evaluate(
         bar.close()
     gt = seq.poses
     return Evaluation(seq.dataset, seq.name, len(seq), records, gt, conditions, sched, severity, runs,
-                      _describe(step_checks), scope.describe(), [m for m in static if m in methods])
+                      _describe(step_checks), scope.describe(), [m for m in static if m in methods], trial.max_coasted,
+                      f"{MOTION_PRIOR}: the first tracked step of {prior_from}, repeated at constant velocity"
+                      if prior_from else "")
 
 
 class _Trial:
     """Runs methods on the variant of one condition and run, and keeps their records."""
 
     def __init__(self, registry: Any, checks: StepChecks, seq: Sequence, sched: Schedule | None,
-                 expected: _ExpectedCost, bar: Any) -> None:
+                 expected: _ExpectedCost, bar: Any, max_coasted: float | None) -> None:
         self.registry, self.checks, self.seq, self.sched, self.expected, self.bar = registry, checks, seq, sched, expected, bar
+        self.max_coasted = max_coasted
         self.records: list[RunRecord] = []
         self.condition, self.run, self.variant = "none", 0, seq
 
@@ -216,11 +250,18 @@ class _Trial:
         if isinstance(chooser, DynChooser):
             note = "; ".join(sorted(chooser.notes))
         rec = _record(method, self.condition, self.run, budget, res, self.seq, self.sched, self.expected,
-                      time.perf_counter() - t0, note)
+                      time.perf_counter() - t0, note, self.max_coasted)
         rec.selections = list(chooser.selections) if isinstance(chooser, AdvisorChooser) else []
         self.records.append(rec)
         if self.bar is not None:
             self.bar.update(1)
+        return rec
+
+    def control(self, res: VOResult, note: str) -> RunRecord:
+        """The motion-prior control's record: exempt from the coasting bound, no expected cost of its own."""
+        rec = _record(MOTION_PRIOR, self.condition, self.run, None, res, self.seq, self.sched, self.expected, 0.0, note, None)
+        rec.expected_ms = None
+        self.records.append(rec)
         return rec
 
     def ate_or_inf(self, method: str) -> float:
@@ -262,14 +303,17 @@ class _ExpectedCost:
 
 def _record(
     method: str, condition: str, run: int, budget: float | None, res: VOResult, seq: Sequence,
-    sched: Schedule | None, expected: _ExpectedCost, wall_s: float, note: str,
+    sched: Schedule | None, expected: _ExpectedCost, wall_s: float, note: str, max_coasted: float | None,
 ) -> RunRecord:
-    errors = run_errors(seq.poses, res)
-    failed = res.failed or errors.ate is None
+    outcomes = Outcomes.of(res)
+    fails = outcomes.fails(res.max_lost_fraction, max_coasted)
+    errors = run_errors(seq.poses, res, fails)
+    failed = fails or errors.ate is None
+    front = frontend(seq.poses, res)
     use_sched = sched if condition == SCHEDULE else None
     return RunRecord(
         method=method, condition=condition, run=run, ate_rmse=errors.ate, rpe_rmse=errors.rpe, failed=failed,
-        lost=res.lost_count, rejected=sum(f.rejected for f in res.frames), frames=len(res.frames),
+        lost=outcomes.lost, rejected=sum(f.rejected for f in res.frames), frames=len(res.frames),
         extraction_ms=res.mean("extraction_ms"),
         extraction_max_ms=max((f.extraction_ms for f in res.frames), default=0.0),
         matching_ms=res.mean("matching_ms", skip_first=True), expected_ms=expected.mean(res), wall_s=wall_s,
@@ -277,10 +321,11 @@ def _record(
         tries=float(np.mean([f.tries for f in res.frames[1:]])) if len(res.frames) > 1 else 1.0,
         tries_max=max((f.tries for f in res.frames), default=1),
         fell_back=sum(f.reason.startswith("verify:") for f in res.frames),
-        segments=by_segment(errors, res, use_sched) if use_sched else [],
+        segments=by_segment(errors, res, use_sched, front) if use_sched else [],
         transitions=transitions(errors, res, use_sched) if use_sched else [],
-        result=res,
+        result=res, coasted=outcomes.coasted, auc=dict(front.auc) if front else {},
+        frontend_ate=front.ate if front else None, front=front,
     )
 
 
-__all__ = ["SCHEDULE", "TUNED", "Evaluation", "RunRecord", "evaluate"]
+__all__ = ["MOTION_PRIOR", "SCHEDULE", "TUNED", "Evaluation", "RunRecord", "evaluate"]

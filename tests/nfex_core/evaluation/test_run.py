@@ -28,8 +28,15 @@ def test_evaluate_pairs_runs_and_reports_segments_transitions_and_oracles(bare_k
     assert ev.conditions == ["none", SCHEDULE] and ev.runs == 2 and "sequence_synthetic_planes_0" in ev.scope
     assert ev.checks.startswith("agent car")
     keys = {r.key for r in ev.records}
-    assert keys == {"orb-default", "orb-dyn", "sift-default", "nfex", "oracle-segment", "oracle-pair"}
-    assert len(ev.records) == 2 * 2 * 6
+    assert keys == {"orb-default", "orb-dyn", "sift-default", "nfex", "oracle-segment", "oracle-pair", "motion-prior"}
+    assert len(ev.records) == 2 * 2 * 7
+    for r in ev.records:  # every run has its front-end figures; lost and coasted pairs are apart
+        assert set(r.auc) == {5.0, 10.0, 20.0} and all(0.0 <= v <= 1.0 for v in r.auc.values())
+        assert r.auc[5.0] <= r.auc[10.0] <= r.auc[20.0] and r.lost + r.coasted <= r.frames - 1
+        assert r.coasted >= r.rejected + r.fell_back
+    prior = [r for r in ev.records if r.method == "motion-prior"]
+    assert all(r.coasted >= r.frames - 2 and r.lost == 0 for r in prior)  # all coasting after the first step
+    assert "orb-default" in ev.control
     sched = [r for r in ev.records if r.condition == SCHEDULE]
     assert all([s["segment"] for s in r.segments] == ["none:0-3", "dark:4-7"] for r in sched)
     assert all(len(r.transitions) == 1 and r.transitions[0]["transition"] == "none→dark" for r in sched)
@@ -44,6 +51,10 @@ def test_evaluate_pairs_runs_and_reports_segments_transitions_and_oracles(bare_k
     js = as_json(ev)
     assert js["best_static"]["none"] == best and json.dumps(js)
     assert len(js["methods"]["nfex"]["by_condition"]["none"]["ate_runs"]) == 2
+    figures = js["methods"]["nfex"]["by_condition"]["none"]["figures"]
+    assert set(figures) == {"auc5", "auc10", "auc20", "frontend_ate", "ate", "lost", "coasted"}
+    assert len(figures["auc10"]["runs"]) == 2 and figures["auc10"]["vs_best_static"]["reference"] in ev.static
+    assert js["max_coasted_fraction"] == 0.5 and "Front-end accuracy" in md
     assert frames_csv(ev).count("\n") == 1 + len(ev.records) * 8
     names = {p.name for p in draw(ev, tmp_path)}
     assert {"trajectories.png", "ate.png", "extractor_per_frame.png", "accuracy_vs_cost.png"} <= names

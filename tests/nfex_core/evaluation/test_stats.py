@@ -31,3 +31,27 @@ def test_failed_runs_leave_the_pairs_they_break() -> None:
     assert c.pairs == 2
     assert compare([1.0, 2.0], [1.0, 2.0], "ref").verdict == "on par"
     assert compare([1.0], [2.0], "ref").p_wilcoxon is None and not math.isnan(summary([1.0]).mean or 0)
+
+
+def test_higher_is_better_reads_the_sign_the_other_way() -> None:
+    ref = [0.5, 0.6, 0.55, 0.7, 0.65, 0.52, 0.48, 0.62, 0.59, 0.68]
+    assert compare([r * 1.2 for r in ref], ref, "x", higher_is_better=True).verdict == "better"
+    assert compare([r * 0.8 for r in ref], ref, "x", higher_is_better=True).verdict == "worse"
+
+
+def test_the_detectable_difference_is_what_wilcoxon_finds_four_times_in_five() -> None:
+    """At the true difference it reports, the signed-rank test reaches p < 0.05 in about 80 % of simulated
+    comparisons; with 5 pairs or fewer it reports none (Wilcoxon cannot reach 0.05)."""
+    import numpy as np
+    from scipy.stats import wilcoxon
+
+    from nfex_core.evaluation.stats import detectable
+
+    rng = np.random.default_rng(0)
+    n, sigma = 10, 0.1
+    delta = float(np.mean([detectable(rng.normal(0, sigma, n), 1.0) for _ in range(2000)]))  # type: ignore[misc]
+    assert 0.09 < delta < 0.13  # (t.975,9 + t.8,9)·σ/√10/√(3/π) ≈ 0.102, less the bias of s
+    hits = [wilcoxon(rng.normal(delta, sigma, n)).pvalue < 0.05 for _ in range(2000)]
+    assert 0.7 < float(np.mean(hits)) < 0.9
+    assert detectable(rng.normal(0, sigma, 5), 1.0) is None and detectable(rng.normal(0, sigma, 6), 0.0) is None
+    assert compare([1.1, 2.2, 3.3, 4.4, 5.5, 6.6], [1, 2, 3, 4, 5, 6], "x").detectable is not None

@@ -93,3 +93,16 @@ def test_a_schedule_sweep_keeps_each_pairs_outcome_and_the_transition(kg: Knowle
     for p in pairs:  # an estimate has its error against the ground truth; a lost pair says why
         assert p["rotation_error_deg"] != "" or (p["lost"] == "1" and p["reason"])
     assert kg.ask('ASK { ?m a nfex:Measurement ; nfex:transition "none→dark" ; nfex:badPairFraction ?b }')
+
+
+@pytest.mark.slow
+def test_a_ramped_schedule_sweeps_like_an_abrupt_one(kg: KnowledgeGraph, data_dir: Path, tmp_path: Path) -> None:
+    """A segment's own severity ramp travels with the schedule's text into the row and the Measurement."""
+    csv = tmp_path / "t.csv"
+    text = "none:0-1,dark:2-199@0.2-0.9"
+    counts = sweep(_spec(data_dir, corruptions=(), schedules=(text,), sample=1), kg, csv, run=RunInfo(command="test"),
+                   workers=1, progress=False)
+    assert counts["ran"] == 1
+    (row,) = table.read(csv)
+    assert (row["corruption"], row["schedule"], row["transition"]) == ("schedule", text, "none→dark")
+    assert [p["transition"] for p in table.read_pairs(table.pairs_path(csv))] == ["", "none→dark", ""]

@@ -49,6 +49,18 @@ def test_kitti_00(data_dir: Path) -> None:
     assert np.allclose(same.poses, ref.poses)
 
 
+def test_kitti_07_reads_its_own_calibration_and_poses(data_dir: Path) -> None:
+    seq = open_sequence(data_dir / "kitti", "kitti", "07")
+    _check_sequence(seq, 160, (370, 1226))
+    assert (seq.intrinsics.fx, seq.intrinsics.fy, seq.intrinsics.cx, seq.intrinsics.cy) == (707.0912, 707.0912, 601.8873, 183.1104)
+    ref = read_trajectory(data_dir / "kitti" / "poses" / "07.txt", "kitti")
+    assert np.allclose(seq.poses, ref.poses) and np.allclose(seq.poses[0], np.eye(4), atol=1e-6)
+    # the data README: 91 m of urban driving with a 95° turn at a junction
+    path = np.sum(np.linalg.norm(np.diff(seq.poses[:, :3, 3], axis=0), axis=1))
+    heading = np.degrees(np.arctan2(seq.poses[:, 0, 2], seq.poses[:, 2, 2]))
+    assert 85 < path < 97 and 85 < np.ptp(heading) < 105
+
+
 def test_euroc_micro(data_dir: Path) -> None:
     seq = open_sequence(data_dir / "euroc", "euroc", "V1_01_easy_micro")
     _check_sequence(seq, 95, (480, 752))

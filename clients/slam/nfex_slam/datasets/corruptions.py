@@ -17,6 +17,8 @@ slowly with the frame index. A frame's noise comes from ``default_rng((seed, fra
 it is the same whatever order frames are read in and however the sequence was sliced (before or
 after corrupting; only motion blur on the last frame of a sequence sliced *before* corrupting
 differs, as its flow is then taken from the frame before). s = 0 is the identity and adds no label.
+``CorruptedSequence.at(i, s)`` gives a frame at a severity of its own (a ramped schedule segment,
+``datasets.schedule``): the same image as a whole sequence corrupted at s.
 """
 from __future__ import annotations
 
@@ -190,7 +192,7 @@ class CorruptedSequence(Sequence):
         self.intrinsics = base.intrinsics
         self.labels = dict(LABELS[corruption]) if severity > 0 else {}
         self.context = dict(base.context) | self.labels
-        self._blobs: np.ndarray | None = None
+        self._blobs: dict[float, np.ndarray] = {}  # per severity: glare's count and radius depend on it
 
     def __len__(self) -> int:
         return len(self._pos)
@@ -198,10 +200,15 @@ class CorruptedSequence(Sequence):
     def __getitem__(self, i):
         if isinstance(i, slice):
             return CorruptedSequence(self.base, self.corruption, self.severity, self.seed, self._pos[i])
-        idx = self._pos[int(i)]
+        return self.at(int(i), self.severity)
+
+    def at(self, i: int, severity: float) -> Frame:
+        """Frame ``i`` under this corruption at ``severity`` (labelled where it is above 0)."""
+        idx = self._pos[i]
         frame = self.base[idx]
-        image = self._apply(idx, frame)  # idx: position here (neighbours); frame.index: identity (seeds)
-        return Frame(frame.index, frame.timestamp, image, frame.pose, dict(frame.context) | self.labels)
+        image = self._apply(idx, frame, float(severity))  # idx: position here (neighbours); frame.index: identity (seeds)
+        labels = dict(LABELS[self.corruption]) if severity > 0 else {}
+        return Frame(frame.index, frame.timestamp, image, frame.pose, dict(frame.context) | labels)
 
     @property
     def timestamps(self) -> np.ndarray:
@@ -229,28 +236,28 @@ class CorruptedSequence(Sequence):
         """The median image motion (2,) at position ``i`` of the base sequence."""
         return self.flow_field(i, (1, 1))[0, 0]
 
-    def blobs(self, frame_index: int) -> np.ndarray:
-        """Glare blobs of a frame: sequence-fixed centres drifting ~1 px per frame, fixed radii."""
+    def blobs(self, frame_index: int, severity: float | None = None) -> np.ndarray:
+        """Glare blobs of a frame: sequence-fixed centres drifting ~1 px per frame, fixed radii (per severity)."""
         w, h = self.intrinsics.width, self.intrinsics.height
-        if self._blobs is None:
+        s = self.severity if severity is None else float(severity)
+        b = self._blobs.get(s)
+        if b is None:
             rng = np.random.default_rng((self.seed, 7919))
-            count = 1 + int(round(4 * self.severity))
+            count = 1 + int(round(4 * s))
             centres = rng.uniform([0.1 * w, 0.1 * h], [0.9 * w, 0.9 * h], size=(count, 2))
             drift = rng.normal(0.0, 1.0, size=(count, 2))
-            radius = np.full((count, 1), (0.03 + 0.1 * self.severity) * min(w, h))
-            self._blobs = np.hstack([centres, drift, radius])
-        b = self._blobs
+            radius = np.full((count, 1), (0.03 + 0.1 * s) * min(w, h))
+            b = self._blobs[s] = np.hstack([centres, drift, radius])
         i = frame_index
         return np.column_stack([b[:, 0] + i * b[:, 2], b[:, 1] + i * b[:, 3], b[:, 4]])
 
-    def _apply(self, i: int, frame: Frame) -> np.ndarray:
-        s = self.severity
+    def _apply(self, i: int, frame: Frame, s: float) -> np.ndarray:
         if s == 0:
             return frame.image
         if self.corruption == "motion_blur":
             return motion_blur(frame.image, s, self.flow_field(i))
         if self.corruption == "glare":
-            return glare(frame.image, s, self.blobs(frame.index))
+            return glare(frame.image, s, self.blobs(frame.index, s))
         return _PIXEL[self.corruption](frame.image, s, self.rng(frame.index))
 
 

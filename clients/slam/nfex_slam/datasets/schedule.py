@@ -10,9 +10,19 @@ frame is corrupted by its segment's corruption, seeded as ``corrupt`` seeds it (
 give the same image whatever the schedule), and carries that segment's context labels. The pairs
 (k−1, k) where k starts a segment straddle a change of conditions: ``Schedule.transitions``.
 
+A segment may carry its own severity: ``dark:13-25@0.5`` is constant, ``dark:13-25@0.2-0.9`` ramps
+linearly over the segment's frames, s_i = a + (b − a)·(i − start)/(end − start) (a tunnel darkens over
+seconds, not between two frames); without ``@`` the segment takes the schedule's severity (``--severity``).
+Frame i of a ramped segment is the image the whole sequence corrupted at s_i gives there; a frame at
+s = 0 is unchanged and unlabelled. Ramps into and out of a condition are segments of their own:
+``none:0-9,dark:10-19@0-0.8,dark:20-29@0.8,dark:30-39@0.8-0``.
+
 >>> s = Schedule.parse("none:0-1,dark:2-3", frames=4)
 >>> [seg.corruption for seg in s.segments], s.transitions
 (['none', 'dark'], [2])
+>>> r = Schedule.parse("none:0-1,dark:2-6@0.2-0.6", frames=7)
+>>> [round(r.severity_at(i, 0.7), 2) for i in range(7)], r.text
+([0.0, 0.0, 0.2, 0.3, 0.4, 0.5, 0.6], 'none:0-1,dark:2-6@0.2-0.6')
 """
 from __future__ import annotations
 
@@ -25,7 +35,8 @@ from ..errors import BadInput
 from .base import Frame, Sequence
 from .corruptions import LABELS, NAMES, CorruptedSequence
 
-_SEGMENT = re.compile(r"^\s*([A-Za-z_]+)\s*:\s*(\d+)\s*-\s*(\d+)\s*$")
+_NUM = r"(\d+(?:\.\d*)?|\.\d+)"
+_SEGMENT = re.compile(rf"^\s*([A-Za-z_]+)\s*:\s*(\d+)\s*-\s*(\d+)\s*(?:@\s*{_NUM}\s*(?:-\s*{_NUM})?)?\s*$")
 
 
 @dataclass(frozen=True)
@@ -33,10 +44,30 @@ class Segment:
     corruption: str  # a corruption name or "none"
     start: int
     end: int  # inclusive
+    severity: tuple[float, float] | None = None  # (first frame's, last frame's); None: the schedule's severity
 
     @property
     def label(self) -> str:
-        return f"{self.corruption}:{self.start}-{self.end}"
+        return f"{self.corruption}:{self.start}-{self.end}" + self._severity_text()
+
+    def _severity_text(self) -> str:
+        if self.severity is None:
+            return ""
+        a, b = self.severity
+        return f"@{a:g}" if a == b else f"@{a:g}-{b:g}"
+
+    @property
+    def ramped(self) -> bool:
+        return self.severity is not None and self.severity[0] != self.severity[1]
+
+    def severity_at(self, i: int, default: float) -> float:
+        """s_i of frame ``i`` in this segment (module docstring); 0 for ``none``."""
+        if self.corruption == "none":
+            return 0.0
+        if self.severity is None:
+            return float(default)
+        a, b = self.severity
+        return a if self.end == self.start else a + (b - a) * (i - self.start) / (self.end - self.start)
 
     def __contains__(self, i: object) -> bool:
         return isinstance(i, int) and self.start <= i <= self.end
@@ -53,13 +84,23 @@ class Schedule:
         for part in filter(None, (p.strip() for p in text.split(","))):
             m = _SEGMENT.match(part)
             if m is None:
-                raise BadInput(f"schedule segment {part!r} is not CORRUPTION:START-END (e.g. dark:13-25)")
+                raise BadInput(f"schedule segment {part!r} is not CORRUPTION:START-END[@S or @S0-S1] "
+                               "(e.g. dark:13-25, dark:13-25@0.5, dark:13-25@0.2-0.9)")
             name, a, b = m.group(1), int(m.group(2)), int(m.group(3))
             if name != "none" and name not in LABELS:
                 raise BadInput(f"schedule segment {part!r}: unknown corruption {name!r}; known: none, {', '.join(NAMES)}")
             if b < a:
                 raise BadInput(f"schedule segment {part!r}: its end {b} is before its start {a}")
-            segments.append(Segment(name, a, b))
+            severity = None
+            if m.group(4) is not None:
+                if name == "none":
+                    raise BadInput(f"schedule segment {part!r}: 'none' has no severity")
+                s0 = float(m.group(4))
+                s1 = float(m.group(5)) if m.group(5) is not None else s0
+                if not (0.0 <= s0 <= 1.0 and 0.0 <= s1 <= 1.0):
+                    raise BadInput(f"schedule segment {part!r}: a severity must lie in [0, 1]")
+                severity = (s0, s1)
+            segments.append(Segment(name, a, b, severity))
         if not segments:
             raise BadInput("the schedule is empty; give CORRUPTION:START-END segments separated by commas")
         segments.sort(key=lambda s: s.start)
@@ -94,9 +135,19 @@ class Schedule:
     def transition_name(self, k: int) -> str:
         return f"{self.segment_of(k - 1).corruption}→{self.segment_of(k).corruption}"
 
+    def severity_at(self, i: int, default: float) -> float:
+        """The severity of frame ``i``: its segment's (ramped or constant), else ``default``."""
+        return self.segment_of(i).severity_at(i, default)
+
+    @property
+    def ramps(self) -> bool:
+        """Whether any segment's severity changes along it."""
+        return any(s.ramped for s in self.segments)
+
 
 class ScheduledSequence(Sequence):
-    """``base`` with each frame corrupted by its segment's corruption at ``severity`` (module docstring)."""
+    """``base`` with each frame corrupted by its segment's corruption at its severity — the segment's own,
+    ramped or constant, else ``severity`` (module docstring)."""
 
     def __init__(self, base: Sequence, schedule: Schedule, severity: float, seed: int = 0) -> None:
         self.base = base
@@ -106,7 +157,7 @@ class ScheduledSequence(Sequence):
         self.dataset, self.name = base.dataset, base.name
         self.intrinsics, self.context = base.intrinsics, dict(base.context)
         # one lazily corrupted view per corruption, over the whole base (motion blur sees true neighbours)
-        self._views: dict[str, Sequence] = {
+        self._views: dict[str, CorruptedSequence] = {
             c: CorruptedSequence(base, c, severity, seed) for c in {s.corruption for s in schedule.segments} if c != "none"
         }
 
@@ -117,7 +168,9 @@ class ScheduledSequence(Sequence):
         if isinstance(i, slice):
             raise BadInput("slice the sequence before applying a schedule (the schedule's ranges are its positions)")
         seg = self.schedule.segment_of(int(i))
-        frame: Frame = self._views[seg.corruption][int(i)] if seg.corruption in self._views else self.base[int(i)]
+        if seg.corruption not in self._views:
+            return self.base[int(i)]
+        frame: Frame = self._views[seg.corruption].at(int(i), seg.severity_at(int(i), self.severity))
         return frame
 
     @property
