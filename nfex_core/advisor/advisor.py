@@ -43,7 +43,7 @@ from .conditions import Conditions, read_conditions
 from .params import Parameters, parameters
 from .reuse import Decided, ReuseTerms, reusable
 from .scoring import SCORE_PIXELS, FrameState, Scored, Scorer, by_network, downscale, prior_scores
-from .selection import CandidateScore, PrunedCandidate, Selection
+from .selection import UNSCORED, CandidateScore, PrunedCandidate, Scoring, Selection
 from .snapshots import Snapshots
 
 if TYPE_CHECKING:
@@ -265,12 +265,15 @@ class Advisor:
                 params = parameters(snap.vocab, snap.table, decision, cond.values, budget, nn, None)
                 cached = snap.priors[key] = (prior_scores(decision, params), params)
             listed, decided = by_network(nn, None, list(cached[0]), list(cached[0]))
-            return cached[1], Scored(listed, None, "selectornet" if decided else "prior")
+            how = Scoring(UNSCORED, "no frame: " + ("SelectorNet's probabilities on the context" if decided else
+                                                    "the preference bonus and the measured accuracy decide"))
+            return cached[1], Scored(listed, None, "selectornet" if decided else "prior", how)
         pixels = int(cond.image.shape[0] * cond.image.shape[1])
         params = parameters(snap.vocab, snap.table, decision, cond.values, budget, nn, pixels)
         # verification tries the candidates in order: it needs every one scored, not only the winner
         exhaustive = self.exhaustive_scoring or decision.verification.active
-        return params, self.scorer.on_frame(snap.vocab, snap.registry, decision, params, nn, cond.image, previous, exhaustive)
+        return params, self.scorer.on_frame(snap.vocab, snap.registry, decision, params, nn, cond.image, previous, exhaustive,
+                                            snap.table.cost)
 
     def _answer(
         self, snap: Snapshot, decision: Decision, cond: Conditions, budget: Budget | None, nn: NeuralStep,
@@ -307,6 +310,7 @@ class Advisor:
             warnings=tuple(outcome.warnings) if outcome is not None else (),
             verification=decision.verification,
             escalations=escalations,
+            scoring=scored.scoring,
         )
 
 
