@@ -53,6 +53,7 @@ class Session:
     state_bytes: int = 0
     pending: Any = None  # the last frame's (proposals, verification policy) until its pair is judged
     prior: Any = None  # verification.Prior: the last accepted step that translated
+    verdict_held: bool = True  # the last judged pair did not reject α*: the decision may be reused (advisor/reuse.py)
     lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     def as_dict(self, ttl_s: float, now: float | None = None) -> dict[str, Any]:

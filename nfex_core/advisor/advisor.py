@@ -179,12 +179,16 @@ class Advisor:
         compute: str | None = None,
         frame_size: tuple[int, int] | None = None,
         consistency: str = "snapshot",
+        session: bool = False,
+        verdict_held: bool = True,
     ) -> Selection:
         """The flow for one request. ``budget_ms`` (per-frame extraction time the client can afford) and
         ``compute`` (a compute class of the graph) may also come as context keys of those names;
         ``frame_size`` (W, H) sizes the cost check when no frame is sent. ``consistency``: ``snapshot``
         answers from the current snapshot (stale by at most the bound of snapshots.py in background mode),
-        ``latest`` from the store's head version (it waits for that compile)."""
+        ``latest`` from the store's head version (it waits for that compile). ``session``: the frame belongs to a
+        service session, whose decision is reused while its evidence holds (reuse.py; ``verdict_held``: the last
+        verification verdict did not reject α*)."""
         if consistency not in CONSISTENCY:
             raise BadInput(f"consistency must be one of {', '.join(CONSISTENCY)}, got {consistency!r}")
         laps = _Laps()
@@ -210,12 +214,12 @@ class Advisor:
             laps("neural")
         # decision reuse (reuse.py) is off unless the graph allows it: then nothing of it runs per request
         key = (snap.version, tuple(sorted(cond.values.items())), budget.as_dict() if budget else None,
-               nn.info.get("used")) if snap.reuse.frames and cond.image is not None else None
+               nn.info.get("used")) if snap.reuse.limit(session) and cond.image is not None else None
         if key is not None and previous is not None and previous.decided is not None:
             from ..vision.statistics import FRAME_KEYS
 
-            if reusable(snap.reuse, previous.decided, key, cond.stats, FRAME_KEYS):
-                return self._reused(previous.decided, cond, previous, laps)
+            if reusable(snap.reuse, previous.decided, key, cond.stats, FRAME_KEYS, session, verdict_held):
+                return self._reused(snap, previous.decided, cond, previous, laps, session)
         params, scored = self._score(snap, decision, cond, budget, nn, previous)
         laps("selection")
         escalations = self._escalations(snap, decision, cond, budget, nn)
@@ -225,16 +229,28 @@ class Advisor:
             answer = replace(answer, state=replace(answer.state, decided=decided))
         return answer
 
-    def _reused(self, last: Decided, cond: Conditions, previous: FrameState, laps: _Laps) -> Selection:
-        """The last scored answer for a frame that has not moved (reuse.py); the stream keeps this frame's image,
-        so the next scored frame's temporal metrics compare neighbouring frames."""
+    def _reused(self, snap: Snapshot, last: Decided, cond: Conditions, previous: FrameState, laps: _Laps,
+                session: bool) -> Selection:
+        """The last scored answer for a frame whose evidence has not moved (reuse.py). The stream keeps this frame's
+        image; in a session α* is extracted on it (one extraction), so the next decision's temporal metrics compare
+        neighbouring frames with α*'s features at hand."""
         assert cond.image is not None
         small = downscale(cond.image, self.score_pixels)
+        features: dict[str, Any] = {}
+        alpha = last.selection.extractor
+        pixels = 0
+        if session and alpha in previous.params and previous.image.shape == small.shape:
+            features[alpha] = snap.registry.extract(alpha, small, previous.params[alpha])
+            pixels = int(small.size)
         laps("reused")
         decided = replace(last, reused=last.reused + 1)
         timings = dict(laps.timings, total=sum(laps.timings.values()))
+        why = (f"the decision of {decided.reused} frame(s) ago reused: the "
+               + ("condition estimate and the verification verdict have not moved" if session else
+                  "context and the frame statistics have not moved"))
         return replace(last.selection, context=cond.entries, timings_ms=timings, reused=decided.reused,
-                       state=FrameState(small, {}, dict(previous.params), decided))
+                       scoring=Scoring(UNSCORED, why, 1 if features else 0, pixels),
+                       state=FrameState(small, features, dict(previous.params), decided))
 
     def _escalations(self, snap: Snapshot, decision: Decision, cond: Conditions, budget: Budget | None,
                      nn: NeuralStep) -> tuple[CandidateScore, ...]:

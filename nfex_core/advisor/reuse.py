@@ -10,6 +10,17 @@ and candidates — without extraction or scoring — when
 Both numbers are data (rules/pruning/thresholds.ttl). The shipped nfex:decisionReuseFrames is 0: reuse is
 off, so a stream's answers equal per-frame scoring (README's evaluations rely on it); a deployment that
 prefers throughput sets it (``nfex kg update``) and the Selection says ``reused: n`` for every reused answer.
+
+A service session (``session=True``) reuses on the evidence the decision rests on instead of the raw
+statistics: frame t+1 keeps frame t's decision when
+
+    E(t+1) = E(t) (the condition estimate: every dimension, given or estimated), the same graph version, budget
+    and model, the last verification verdict did not reject α* (the pair was accepted on the first proposal,
+    or no verdict was reported), and fewer than nfex:sessionDecisionFrames − 1 frames reused it since it was made,
+
+so a session re-decides on a change of E, on a rejected pair, and at least every nfex:sessionDecisionFrames
+frames (shipped: rules/pruning/thresholds.ttl). A reused frame extracts α* alone (the stream's features stay
+those of neighbouring frames for the next decision's temporal metrics).
 """
 from __future__ import annotations
 
@@ -30,6 +41,7 @@ class ReuseTerms:
 
     frames: int = 0
     change: float = 0.0
+    session: int = 0  # nfex:sessionDecisionFrames: a session's decision serves at most this many frames (0, 1: each scored)
 
     @classmethod
     def load(cls, kg: KnowledgeGraph) -> ReuseTerms:
@@ -40,7 +52,11 @@ class ReuseTerms:
             return float(py(rows[0]["v"])) if rows else None
 
         frames, change = value("decisionReuseFrames"), value("decisionReuseChange")
-        return cls(max(0, int(frames or 0)), max(0.0, change or 0.0))
+        return cls(max(0, int(frames or 0)), max(0.0, change or 0.0), max(0, int(value("sessionDecisionFrames") or 0)))
+
+    def limit(self, session: bool) -> int:
+        """How many frames in a row may reuse one decision (0: none)."""
+        return max(0, self.session - 1) if session else self.frames
 
 
 @dataclass(frozen=True)
@@ -61,7 +77,9 @@ def moved(before: Mapping[str, float], after: Mapping[str, float], keys: tuple[s
 
 
 def reusable(terms: ReuseTerms, last: Decided | None, key: tuple[Any, ...], stats: Mapping[str, float] | None,
-             keys: tuple[str, ...]) -> bool:
-    """Whether ``last`` answers a frame decided under ``key`` with ``stats`` (module docstring)."""
-    return (last is not None and stats is not None and last.reused < terms.frames and last.key == key
-            and moved(last.stats, stats, keys) <= terms.change)
+             keys: tuple[str, ...], session: bool = False, verdict_held: bool = True) -> bool:
+    """Whether ``last`` answers a frame decided under ``key`` with ``stats`` (module docstring): in a stream, while
+    the statistics have not moved; in a session, while the verdict on α* held."""
+    if last is None or stats is None or last.reused >= terms.limit(session) or last.key != key:
+        return False
+    return verdict_held if session else moved(last.stats, stats, keys) <= terms.change

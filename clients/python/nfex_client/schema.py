@@ -409,6 +409,7 @@ class StreamPosition(TypedDict):
     id: str
     frame: int
     temporal: bool
+    reused: NotRequired[bool]
 
 
 class Verdict(TypedDict):
