@@ -77,7 +77,7 @@ class Snapshot:
 class Advisor:
     """``neural``: symbolic | paramnet | selectornet | both (default: the settings'; see neural.serve);
     ``models``: the model folder (default: the settings'). Without a usable model the advisor is symbolic.
-    ``score_pixels``: F_metrics is measured on a copy of the frame of about this many pixels (QVGA);
+    ``score_pixels``: F_metrics is measured on a copy of the frame of about this many pixels (QQVGA, scoring.SCORE_PIXELS);
     ``score_threads``: candidates extracted side by side (default: the settings', else the CPU count);
     ``scope``: the evidence the advisor may read (kg.scope): the graph is read through it, and a model
     trained on a held-out sequence is not used.
