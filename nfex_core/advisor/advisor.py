@@ -213,23 +213,30 @@ class Advisor:
             nn.prepare(cond.values, frame_stats(cond.stats))
             laps("neural")
         # decision reuse (reuse.py) is off unless the graph allows it: then nothing of it runs per request
-        key = (snap.version, tuple(sorted(cond.values.items())), budget.as_dict() if budget else None,
-               nn.info.get("used")) if snap.reuse.limit(session) and cond.image is not None else None
+        key: tuple[Any, ...] | None = None
+        estimate: tuple[tuple[str, str | None], ...] = ()
+        if snap.reuse.limit(session) and cond.image is not None:
+            # a session's decision rests on the given context and, separately, on the estimate (reuse.py)
+            fixed = tuple(sorted((e.dimension, e.value) for e in cond.entries if e.source == "given"))
+            estimate = tuple(sorted((e.dimension, e.value) for e in cond.entries if e.source != "given"))
+            key = (snap.version, fixed if session else tuple(sorted(cond.values.items())),
+                   budget.as_dict() if budget else None, nn.info.get("used"))
         if key is not None and previous is not None and previous.decided is not None:
             from ..vision.statistics import FRAME_KEYS
 
-            if reusable(snap.reuse, previous.decided, key, cond.stats, FRAME_KEYS, session, verdict_held):
-                return self._reused(snap, previous.decided, cond, previous, laps, session)
+            carried = reusable(snap.reuse, previous.decided, key, cond.stats, FRAME_KEYS, session, verdict_held, estimate)
+            if carried is not None:
+                return self._reused(snap, carried, cond, previous, laps, session)
         params, scored = self._score(snap, decision, cond, budget, nn, previous)
         laps("selection")
         escalations = self._escalations(snap, decision, cond, budget, nn)
         answer = self._answer(snap, decision, cond, budget, nn, params, scored, laps.timings, escalations)
         if key is not None and answer.state is not None and cond.stats is not None:  # what the next frames may reuse
-            decided = Decided(key, dict(cond.stats), replace(answer, state=None))
+            decided = Decided(key, dict(cond.stats), replace(answer, state=None), estimate=estimate)
             answer = replace(answer, state=replace(answer.state, decided=decided))
         return answer
 
-    def _reused(self, snap: Snapshot, last: Decided, cond: Conditions, previous: FrameState, laps: _Laps,
+    def _reused(self, snap: Snapshot, decided: Decided, cond: Conditions, previous: FrameState, laps: _Laps,
                 session: bool) -> Selection:
         """The last scored answer for a frame whose evidence has not moved (reuse.py). The stream keeps this frame's
         image; in a session α* is extracted on it (one extraction), so the next decision's temporal metrics compare
@@ -237,18 +244,19 @@ class Advisor:
         assert cond.image is not None
         small = downscale(cond.image, self.score_pixels)
         features: dict[str, Any] = {}
-        alpha = last.selection.extractor
+        alpha = decided.selection.extractor
         pixels = 0
         if session and alpha in previous.params and previous.image.shape == small.shape:
             features[alpha] = snap.registry.extract(alpha, small, previous.params[alpha])
             pixels = int(small.size)
         laps("reused")
-        decided = replace(last, reused=last.reused + 1)
         timings = dict(laps.timings, total=sum(laps.timings.values()))
         why = (f"the decision of {decided.reused} frame(s) ago reused: the "
                + ("condition estimate and the verification verdict have not moved" if session else
                   "context and the frame statistics have not moved"))
-        return replace(last.selection, context=cond.entries, timings_ms=timings, reused=decided.reused,
+        if decided.differed:
+            why += f" (the estimate has differed for {decided.differed} frame(s): a change re-decides once it holds)"
+        return replace(decided.selection, context=cond.entries, timings_ms=timings, reused=decided.reused,
                        scoring=Scoring(UNSCORED, why, 1 if features else 0, pixels),
                        state=FrameState(small, features, dict(previous.params), decided))
 
@@ -286,10 +294,10 @@ class Advisor:
             return cached[1], Scored(listed, None, "selectornet" if decided else "prior", how)
         pixels = int(cond.image.shape[0] * cond.image.shape[1])
         params = parameters(snap.vocab, snap.table, decision, cond.values, budget, nn, pixels)
-        # verification tries the candidates in order: it needs every one scored, not only the winner
-        exhaustive = self.exhaustive_scoring or decision.verification.active
-        return params, self.scorer.on_frame(snap.vocab, snap.registry, decision, params, nn, cond.image, previous, exhaustive,
-                                            snap.table.cost)
+        # verification tries the first proposals in order: those must be scored, not only the winner
+        top = decision.verification.max_tries if decision.verification.active else 1
+        return params, self.scorer.on_frame(snap.vocab, snap.registry, decision, params, nn, cond.image, previous,
+                                            self.exhaustive_scoring, snap.table.cost, top)
 
     def _answer(
         self, snap: Snapshot, decision: Decision, cond: Conditions, budget: Budget | None, nn: NeuralStep,

@@ -55,10 +55,21 @@ def contenders(intervals: Mapping[str, tuple[float, float]]) -> tuple[str, list[
     return top, [x for x, (_, high) in intervals.items() if x != top and high >= low - SCORE_MARGIN]
 
 
+def out_of_top(intervals: Mapping[str, tuple[float, float]], x: str, k: int) -> bool:
+    """Whether ``k`` other candidates certainly score more than ``x``."""
+    high = intervals[x][1]
+    return sum(1 for y, (low, _) in intervals.items() if y != x and low > high + SCORE_MARGIN) >= k
+
+
 def next_extraction(intervals: Mapping[str, tuple[float, float]], open_: Iterable[str],
-                    ms: Mapping[str, float]) -> str | None:
+                    ms: Mapping[str, float], k: int = 1) -> str | None:
     """The candidate to extract next, or None when α* is settled (module docstring). ``intervals``: every
-    candidate's (low, high), equal for the scored; ``open_``: those not extracted yet; ``ms``: expected times."""
+    candidate's (low, high), equal for the scored; ``open_``: those not extracted yet; ``ms``: expected times.
+    ``k`` > 1 (a verified pair tries the first k proposals in order): every candidate that may be among the
+    first k is extracted, the most promising (highest high bound) first, so their order is exact."""
+    if k > 1:
+        pending = [x for x in open_ if not out_of_top(intervals, x, k)]
+        return max(pending, key=lambda x: (intervals[x][1], -ms.get(x, math.inf))) if pending else None
     top, rivals = contenders(intervals)
     pending = [x for x in (top, *rivals) if x in set(open_)]
     if not rivals or not pending:

@@ -99,8 +99,8 @@ class Scorer:
     bound is below another's high bound, one at a time, the one whose extraction narrows that gap most per
     expected ms. When the bounds settle α* nothing is extracted. α*, Θ′ and the order of the scored candidates
     are those of exhaustive scoring; candidates not extracted are listed with the reason (α*, when settled by
-    bounds, with its least score). ``exhaustive=True`` scores every candidate (verification needs the full
-    ranking)."""
+    bounds, with its least score). Where a verified pair tries the first ``top`` proposals, every candidate
+    that may be among them is scored, so their order is exact. ``exhaustive=True`` scores every candidate."""
 
     score_pixels: int = SCORE_PIXELS
     threads: int = 2
@@ -125,9 +125,11 @@ class Scorer:
         previous: FrameState | None,
         exhaustive: bool = False,
         cost: CostModel | None = None,
+        top: int = 1,
     ) -> Scored:
         """Score the candidates of ``params`` on ``image`` that can still win (class docstring); ``cost`` gives each
-        candidate's expected extraction time at the scoring size (the order of extraction, bounds.py)."""
+        candidate's expected extraction time at the scoring size (the order of extraction, bounds.py); ``top``: how
+        many of the first candidates must be in exact order (a verified pair's proposals)."""
         from ..vision.metrics import SINGLE_FRAME, TEMPORAL, compute_metrics
 
         small = downscale(image, self.score_pixels)
@@ -174,8 +176,10 @@ class Scorer:
         everything = list(params.candidates.values())
         known = nn.selector_extractors if nn.selectornet else frozenset()
         first = sorted((c for c in everything if c.extractor in known), key=lambda c: expected_ms(decision, c))
-        if exhaustive:  # SelectorNet's candidates, or all; the rest below if it does not decide
-            run(first or everything)
+        if first and (exhaustive or top > 1):  # SelectorNet's candidates; the rest below if it does not decide
+            run(first)
+        elif exhaustive:
+            run(everything)
         # SelectorNet is masked to what it was trained on: its candidates are scored first; if it decides, the
         # others (probability 0 whatever their F_metrics) are not extracted at all
         while first:
@@ -211,7 +215,7 @@ class Scorer:
 
         if exhaustive:
             run([c for c in everything if c.extractor not in done])
-        while (pick := next_extraction(intervals(), [x for x in by_name if x not in done], ms)) is not None:
+        while (pick := next_extraction(intervals(), [x for x in by_name if x not in done], ms, top)) is not None:
             run([by_name[pick]])
         final = intervals()
         alpha, _ = contenders(final)
@@ -221,6 +225,9 @@ class Scorer:
                 continue
             if x == alpha:
                 skipped[x] = settled_reason(final, x)
+            elif top > 1:
+                skipped[x] = (f"cannot be among the first {top} proposals: {top} candidates score more than its "
+                              f"most, {final[x][1]:.4f}, whatever its metrics")
             else:
                 skipped[x] = (f"cannot overtake {alpha} ({final[alpha][0]:.4f}): its score is at most "
                               f"{final[x][1]:.4f} whatever its metrics")

@@ -8,6 +8,7 @@ import httpx
 import numpy as np
 import pytest
 
+from nfex_core.advisor.scoring import SCORE_PIXELS
 from nfex_core.errors import NotFound
 from service.sessions import SessionStore, TooManySessions
 
@@ -31,7 +32,7 @@ def test_session_lifecycle(service: Service) -> None:
         state = httpx.get(f"{service.url}/v1/sessions/{sid}").json()
         assert state["frames"] == 2 and state["has_previous"]
         # the scoring image, and the keypoints and descriptors of the candidates extracted on it (if any)
-        assert state["state_bytes"] >= 240 * 320
+        assert state["state_bytes"] >= SCORE_PIXELS
         assert "nfex_session_state_bytes" in httpx.get(service.url + "/metrics").text
     r = httpx.post(f"{service.url}/v1/sessions/{sid}/frames", json={"context": {}})
     assert_problem(r, 400, "bad-input")  # a stream frame needs an image

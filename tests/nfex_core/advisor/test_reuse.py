@@ -39,7 +39,7 @@ def test_the_shipped_graph_scores_every_frame(kg: KnowledgeGraph, data_dir: Path
 
 def test_a_still_frame_reuses_the_decision_at_most_n_frames(kg: KnowledgeGraph, data_dir: Path) -> None:
     allow_reuse(kg, 2)
-    assert ReuseTerms.load(kg) == ReuseTerms(2, 0.05, 30)
+    assert ReuseTerms.load(kg) == ReuseTerms(2, 0.05, 30, 2)
     image = cv2.imread(str(sorted((data_dir / FRAMES).glob("*.png"))[40]), cv2.IMREAD_GRAYSCALE)
     out = stream(Advisor(kg), [image] * 5, {"agent": "drone"})
     assert [s.reused for s in out] == [0, 1, 2, 0, 1]
@@ -111,3 +111,21 @@ def test_a_session_re_decides_when_the_verdict_or_the_context_moves(kg: Knowledg
     assert advisor.select(ctx, images[1], first.state, session=True).reused == 1
     assert advisor.select(ctx, images[1], first.state, session=True, verdict_held=False).reused == 0
     assert advisor.select({**ctx, "light": "dark"}, images[1], first.state, session=True).reused == 0
+
+
+def test_a_session_re_decides_once_a_changed_estimate_holds(kg: KnowledgeGraph, data_dir: Path) -> None:
+    """Light is estimated: a frame that reads as dark once keeps the decision (nfex:sessionConditionFrames = 2),
+    the second dark frame in a row re-decides."""
+    assert ReuseTerms.load(kg).hold == 2
+    image = cv2.imread(str(sorted((data_dir / FRAMES).glob("*.png"))[40]), cv2.IMREAD_GRAYSCALE)
+    dark = (image * 0.15).astype(np.uint8)
+    advisor = Advisor(kg)
+    ctx = {"agent": "drone", "texture": "high", "motion": "slow"}
+    first = advisor.select(ctx, image, session=True)
+    light = {e.dimension: e for e in first.context}["light"]
+    once = advisor.select(ctx, dark, first.state, session=True)
+    assert {e.dimension: e for e in once.context}["light"].value != light.value, "the darker frame reads the same"
+    assert once.reused == 1 and once.scoring is not None and "differed for 1 frame" in once.scoring.reason
+    assert advisor.select(ctx, dark, once.state, session=True).reused == 0
+    back = advisor.select(ctx, image, once.state, session=True)  # the flicker ends: the decision stands
+    assert back.reused == 2

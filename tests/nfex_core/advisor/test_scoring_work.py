@@ -109,3 +109,24 @@ def test_next_extraction_prefers_what_narrows_the_gap_per_ms() -> None:
     # D cannot reach A's least score: never extracted; settled once A's score passes every high bound
     assert next_extraction({**intervals, "A": (9.0, 9.0)}, ["B", "C", "D"], {}) is None
     assert next_extraction({"A": (6.5, 10.0), "D": (0.0, 3.5)}, ["A", "D"], {}) is None
+
+
+def test_a_verified_pair_scores_its_proposals_in_exact_order(shipped_kg: KnowledgeGraph, data_dir: Path) -> None:
+    """With the verification program in force the first max_tries proposals are those of scoring every candidate,
+    in the same order; candidates that cannot reach them are not extracted."""
+    text = (Path(__file__).resolve().parents[3] / "rules" / "verification" / "verification.nfex").read_text()
+    _, g = programs.compile_text(text, shipped_kg.vocabulary(), name="verification")
+    programs.apply(shipped_kg, g, "verification", author="test")
+    pruned = Advisor(shipped_kg, neural="symbolic")
+    exhaustive = Advisor(shipped_kg, neural="symbolic", exhaustive_scoring=True)
+    images = [kitti(data_dir, i) for i in (40, 41, 42)]
+    for context in ({"agent": "car"}, {"agent": "car", "budget_ms": 20}, {"agent": "car", "scene": "outdoor"}):
+        states: list[object] = [None, None]
+        for image in images:
+            a, n, _ = counted(pruned, context, image, states[0])
+            b = exhaustive.select(context, image, states[1])  # type: ignore[arg-type]
+            states = [a.state, b.state]  # type: ignore[attr-defined]
+            assert a.verification.active and a.verification.max_tries >= 2  # type: ignore[attr-defined]
+            assert [(p.extractor, p.params, p.score) for p in a.proposals] == \
+                [(p.extractor, p.params, p.score) for p in b.proposals], context  # type: ignore[attr-defined]
+            assert b.scoring is not None and n <= b.scoring.extractions
