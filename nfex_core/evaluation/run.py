@@ -147,8 +147,10 @@ def evaluate(
     checks: bool = True,
     oracle: bool = False,
     progress: bool = False,
+    session: bool = False,
 ) -> Evaluation:
-    """Run every method (and nFEX at each budget) on ``sequence`` under each condition, ``runs`` paired times."""
+    """Run every method (and nFEX at each budget) on ``sequence`` under each condition, ``runs`` paired times;
+    ``session``: nFEX decides as a service session does (methods.AdvisorChooser)."""
     from ..advisor import Advisor
     from ..rules.engine import RuleEngine
     from ..vision.registry import ExtractorRegistry
@@ -179,7 +181,7 @@ def evaluate(
             trial.start(condition, r, under(seq, condition, severity, r, sched))
             static_runs: dict[str, VOResult] = {}
             for method, budget in jobs:
-                chooser, note = chooser_for(method, vocab, table, advisor, context, budget)
+                chooser, note = chooser_for(method, vocab, table, advisor, context, budget, session)
                 rec = trial.measure(method, chooser, note, budget)
                 if method in static and rec.result is not None:
                     static_runs[method] = rec.result
