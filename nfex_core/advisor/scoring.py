@@ -140,11 +140,18 @@ class Scorer:
         done: dict[str, tuple[CandidateScore, Any]] = {}
         tally = _Tally()
 
-        def score(c: Candidate) -> tuple[CandidateScore, Any]:
+        def score(c: Candidate, alone: bool = False) -> tuple[CandidateScore, Any]:
+            owed = previous is not None and c.extractor not in previous.features and temporal(c.extractor)
+            # the previous frame's owed extraction runs beside this frame's (OpenCV releases the GIL); only when this
+            # candidate is scored alone, so a pool busy with a wave never waits on itself
+            beside = self.pool().submit(previous.previous, c.extractor, small.shape, registry) \
+                if owed and alone and previous is not None and self.threads > 1 else None
             feats = registry.extract(c.extractor, small, at_scale[c.extractor])
             tally.add(small.size)
-            owed = previous is not None and c.extractor not in previous.features
-            prev = previous.previous(c.extractor, small.shape, registry) if previous is not None else None
+            if beside is not None:
+                prev = beside.result()
+            else:
+                prev = previous.previous(c.extractor, small.shape, registry) if previous is not None else None
             if owed and prev is not None:
                 tally.add(prev[1].size)
             metrics = compute_metrics(feats, small, prev)
@@ -159,7 +166,7 @@ class Scorer:
             ), feats
 
         def run(cs: list[Candidate]) -> None:
-            out = list(self.pool().map(score, cs)) if len(cs) > 1 else [score(c) for c in cs]
+            out = list(self.pool().map(score, cs)) if len(cs) > 1 else [score(c, alone=True) for c in cs]
             done.update((s.extractor, (s, feats)) for s, feats in out)
 
         def state(extracted_by_exhaustive: Iterable[str]) -> FrameState:
