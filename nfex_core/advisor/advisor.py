@@ -231,6 +231,8 @@ class Advisor:
         laps("selection")
         escalations = self._escalations(snap, decision, cond, budget, nn)
         answer = self._answer(snap, decision, cond, budget, nn, params, scored, laps.timings, escalations)
+        if answer.state is not None:
+            answer = replace(answer, state=replace(answer.state, analysis=cond.analysis))
         if key is not None and answer.state is not None and cond.stats is not None:  # what the next frames may reuse
             decided = Decided(key, dict(cond.stats), replace(answer, state=None), estimate=estimate)
             answer = replace(answer, state=replace(answer.state, decided=decided))
@@ -258,7 +260,7 @@ class Advisor:
             why += f" (the estimate has differed for {decided.differed} frame(s): a change re-decides once it holds)"
         return replace(decided.selection, context=cond.entries, timings_ms=timings, reused=decided.reused,
                        scoring=Scoring(UNSCORED, why, 1 if features else 0, pixels),
-                       state=FrameState(small, features, dict(previous.params), decided))
+                       state=FrameState(small, features, dict(previous.params), decided, cond.analysis))
 
     def _escalations(self, snap: Snapshot, decision: Decision, cond: Conditions, budget: Budget | None,
                      nn: NeuralStep) -> tuple[CandidateScore, ...]:

@@ -50,13 +50,14 @@ SCORE_PIXELS = 160 * 120
 class FrameState:
     """What a stream keeps from one frame for the next: the scoring image, the Θ′ (at the scoring size) of every
     candidate exhaustive scoring would have extracted on it, the features of those actually extracted — the next
-    frame extracts the others from ``image`` only if its temporal metrics need them — and the decision a next
-    frame may reuse (reuse.py)."""
+    frame extracts the others from ``image`` only if its temporal metrics need them —, the decision a next frame
+    may reuse (reuse.py) and the copy of the frame its statistics were computed on (the next frame's motion)."""
 
     image: np.ndarray
     features: dict[str, Any]
     params: dict[str, dict[str, Value]] = field(default_factory=dict)
     decided: Decided | None = None
+    analysis: np.ndarray | None = None  # the frame statistics' copy of this frame: the next frame's motion reads it
 
     @property
     def owed(self) -> dict[str, dict[str, Value]]:
