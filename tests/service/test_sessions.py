@@ -29,6 +29,11 @@ def test_session_lifecycle(service: Service) -> None:
         assert_problem(results[0], 501, "not-implemented")
     else:
         assert [x.json()["session"]["temporal"] for x in results] == [False, True]
+        # the same frame again: its evidence has not moved, the decision is reused with α* alone extracted
+        assert [x.json()["session"]["reused"] for x in results] == [False, True]
+        assert results[1].json()["reused"] == 1 and results[1].json()["scoring"]["outcome"] == "unscored"
+        assert results[1].json()["scoring"]["extractions"] == 1
+        assert results[1].json()["extractor"] == results[0].json()["extractor"]
         state = httpx.get(f"{service.url}/v1/sessions/{sid}").json()
         assert state["frames"] == 2 and state["has_previous"]
         # the scoring image, and the keypoints and descriptors of the candidates extracted on it (if any)
