@@ -30,10 +30,12 @@ class TooManySessions(NfexError):
 
 
 def state_bytes(state: Any) -> int:
-    """Approximate memory a FrameState holds: its image and every numpy array in its features."""
+    """Approximate memory a FrameState holds: its images and every numpy array in its features."""
     if state is None:
         return 0
     total = int(getattr(state, "image", np.empty(0)).nbytes)
+    analysis = getattr(state, "analysis", None)
+    total += int(analysis.nbytes) if isinstance(analysis, np.ndarray) else 0
     for feats in getattr(state, "features", {}).values():
         for value in vars(feats).values() if hasattr(feats, "__dict__") else ():
             if isinstance(value, np.ndarray):
@@ -53,6 +55,7 @@ class Session:
     state_bytes: int = 0
     pending: Any = None  # the last frame's (proposals, verification policy) until its pair is judged
     prior: Any = None  # verification.Prior: the last accepted step that translated
+    verdict_held: bool = True  # the last judged pair did not reject α*: the decision may be reused (advisor/reuse.py)
     lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     def as_dict(self, ttl_s: float, now: float | None = None) -> dict[str, Any]:

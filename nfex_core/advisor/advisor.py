@@ -43,7 +43,7 @@ from .conditions import Conditions, read_conditions
 from .params import Parameters, parameters
 from .reuse import Decided, ReuseTerms, reusable
 from .scoring import SCORE_PIXELS, FrameState, Scored, Scorer, by_network, downscale, prior_scores
-from .selection import CandidateScore, PrunedCandidate, Selection
+from .selection import UNSCORED, CandidateScore, PrunedCandidate, Scoring, Selection
 from .snapshots import Snapshots
 
 if TYPE_CHECKING:
@@ -77,7 +77,7 @@ class Snapshot:
 class Advisor:
     """``neural``: symbolic | paramnet | selectornet | both (default: the settings'; see neural.serve);
     ``models``: the model folder (default: the settings'). Without a usable model the advisor is symbolic.
-    ``score_pixels``: F_metrics is measured on a copy of the frame of about this many pixels (QVGA);
+    ``score_pixels``: F_metrics is measured on a copy of the frame of about this many pixels (QQVGA, scoring.SCORE_PIXELS);
     ``score_threads``: candidates extracted side by side (default: the settings', else the CPU count);
     ``scope``: the evidence the advisor may read (kg.scope): the graph is read through it, and a model
     trained on a held-out sequence is not used.
@@ -179,12 +179,16 @@ class Advisor:
         compute: str | None = None,
         frame_size: tuple[int, int] | None = None,
         consistency: str = "snapshot",
+        session: bool = False,
+        verdict_held: bool = True,
     ) -> Selection:
         """The flow for one request. ``budget_ms`` (per-frame extraction time the client can afford) and
         ``compute`` (a compute class of the graph) may also come as context keys of those names;
         ``frame_size`` (W, H) sizes the cost check when no frame is sent. ``consistency``: ``snapshot``
         answers from the current snapshot (stale by at most the bound of snapshots.py in background mode),
-        ``latest`` from the store's head version (it waits for that compile)."""
+        ``latest`` from the store's head version (it waits for that compile). ``session``: the frame belongs to a
+        service session, whose decision is reused while its evidence holds (reuse.py; ``verdict_held``: the last
+        verification verdict did not reject α*)."""
         if consistency not in CONSISTENCY:
             raise BadInput(f"consistency must be one of {', '.join(CONSISTENCY)}, got {consistency!r}")
         laps = _Laps()
@@ -209,32 +213,54 @@ class Advisor:
             nn.prepare(cond.values, frame_stats(cond.stats))
             laps("neural")
         # decision reuse (reuse.py) is off unless the graph allows it: then nothing of it runs per request
-        key = (snap.version, tuple(sorted(cond.values.items())), budget.as_dict() if budget else None,
-               nn.info.get("used")) if snap.reuse.frames and cond.image is not None else None
+        key: tuple[Any, ...] | None = None
+        estimate: tuple[tuple[str, str | None], ...] = ()
+        if snap.reuse.limit(session) and cond.image is not None:
+            # a session's decision rests on the given context and, separately, on the estimate (reuse.py)
+            fixed = tuple(sorted((e.dimension, e.value) for e in cond.entries if e.source == "given"))
+            estimate = tuple(sorted((e.dimension, e.value) for e in cond.entries if e.source != "given"))
+            key = (snap.version, fixed if session else tuple(sorted(cond.values.items())),
+                   budget.as_dict() if budget else None, nn.info.get("used"))
         if key is not None and previous is not None and previous.decided is not None:
             from ..vision.statistics import FRAME_KEYS
 
-            if reusable(snap.reuse, previous.decided, key, cond.stats, FRAME_KEYS):
-                return self._reused(previous.decided, cond, previous, laps)
+            carried = reusable(snap.reuse, previous.decided, key, cond.stats, FRAME_KEYS, session, verdict_held, estimate)
+            if carried is not None:
+                return self._reused(snap, carried, cond, previous, laps, session)
         params, scored = self._score(snap, decision, cond, budget, nn, previous)
         laps("selection")
         escalations = self._escalations(snap, decision, cond, budget, nn)
         answer = self._answer(snap, decision, cond, budget, nn, params, scored, laps.timings, escalations)
+        if answer.state is not None:
+            answer = replace(answer, state=replace(answer.state, analysis=cond.analysis))
         if key is not None and answer.state is not None and cond.stats is not None:  # what the next frames may reuse
-            decided = Decided(key, dict(cond.stats), replace(answer, state=None))
+            decided = Decided(key, dict(cond.stats), replace(answer, state=None), estimate=estimate)
             answer = replace(answer, state=replace(answer.state, decided=decided))
         return answer
 
-    def _reused(self, last: Decided, cond: Conditions, previous: FrameState, laps: _Laps) -> Selection:
-        """The last scored answer for a frame that has not moved (reuse.py); the stream keeps this frame's image,
-        so the next scored frame's temporal metrics compare neighbouring frames."""
+    def _reused(self, snap: Snapshot, decided: Decided, cond: Conditions, previous: FrameState, laps: _Laps,
+                session: bool) -> Selection:
+        """The last scored answer for a frame whose evidence has not moved (reuse.py). The stream keeps this frame's
+        image; in a session α* is extracted on it (one extraction), so the next decision's temporal metrics compare
+        neighbouring frames with α*'s features at hand."""
         assert cond.image is not None
         small = downscale(cond.image, self.score_pixels)
+        features: dict[str, Any] = {}
+        alpha = decided.selection.extractor
+        pixels = 0
+        if session and alpha in previous.params and previous.image.shape == small.shape:
+            features[alpha] = snap.registry.extract(alpha, small, previous.params[alpha])
+            pixels = int(small.size)
         laps("reused")
-        decided = replace(last, reused=last.reused + 1)
         timings = dict(laps.timings, total=sum(laps.timings.values()))
-        return replace(last.selection, context=cond.entries, timings_ms=timings, reused=decided.reused,
-                       state=FrameState(small, {}, dict(previous.params), decided))
+        why = (f"the decision of {decided.reused} frame(s) ago reused: the "
+               + ("condition estimate and the verification verdict have not moved" if session else
+                  "context and the frame statistics have not moved"))
+        if decided.differed:
+            why += f" (the estimate has differed for {decided.differed} frame(s): a change re-decides once it holds)"
+        return replace(decided.selection, context=cond.entries, timings_ms=timings, reused=decided.reused,
+                       scoring=Scoring(UNSCORED, why, 1 if features else 0, pixels),
+                       state=FrameState(small, features, dict(previous.params), decided, cond.analysis))
 
     def _escalations(self, snap: Snapshot, decision: Decision, cond: Conditions, budget: Budget | None,
                      nn: NeuralStep) -> tuple[CandidateScore, ...]:
@@ -265,12 +291,15 @@ class Advisor:
                 params = parameters(snap.vocab, snap.table, decision, cond.values, budget, nn, None)
                 cached = snap.priors[key] = (prior_scores(decision, params), params)
             listed, decided = by_network(nn, None, list(cached[0]), list(cached[0]))
-            return cached[1], Scored(listed, None, "selectornet" if decided else "prior")
+            how = Scoring(UNSCORED, "no frame: " + ("SelectorNet's probabilities on the context" if decided else
+                                                    "the preference bonus and the measured accuracy decide"))
+            return cached[1], Scored(listed, None, "selectornet" if decided else "prior", how)
         pixels = int(cond.image.shape[0] * cond.image.shape[1])
         params = parameters(snap.vocab, snap.table, decision, cond.values, budget, nn, pixels)
-        # verification tries the candidates in order: it needs every one scored, not only the winner
-        exhaustive = self.exhaustive_scoring or decision.verification.active
-        return params, self.scorer.on_frame(snap.vocab, snap.registry, decision, params, nn, cond.image, previous, exhaustive)
+        # verification tries the first proposals in order: those must be scored, not only the winner
+        top = decision.verification.max_tries if decision.verification.active else 1
+        return params, self.scorer.on_frame(snap.vocab, snap.registry, decision, params, nn, cond.image, previous,
+                                            self.exhaustive_scoring, snap.table.cost, top)
 
     def _answer(
         self, snap: Snapshot, decision: Decision, cond: Conditions, budget: Budget | None, nn: NeuralStep,
@@ -307,6 +336,7 @@ class Advisor:
             warnings=tuple(outcome.warnings) if outcome is not None else (),
             verification=decision.verification,
             escalations=escalations,
+            scoring=scored.scoring,
         )
 
 

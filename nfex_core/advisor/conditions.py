@@ -30,6 +30,7 @@ class Conditions:
     values: dict[str, str | None]  # E: dimension → value (None: unknown)
     image: np.ndarray | None  # the frame as 8-bit grey, full size
     stats: Mapping[str, float] | None  # frame statistics (vision.statistics), None without a frame
+    analysis: np.ndarray | None = None  # the frame's copy the statistics were computed on (a stream keeps it)
 
 
 def read_conditions(
@@ -43,13 +44,15 @@ def read_conditions(
     from nfex_slam.features import as_grey_u8
 
     from ..vision.context import estimate_context  # imports cv2: only when a frame comes
-    from ..vision.statistics import frame_statistics
+    from ..vision.statistics import analysis_image, frame_statistics
 
     image = as_grey_u8(frame)
     if min(image.shape[:2]) < MIN_FRAME_SIDE:  # a 1-pixel frame broke OpenCV's pyramids (a 500, bench/bench_fuzz.py)
         raise BadInput(f"the frame is {image.shape[1]}×{image.shape[0]} pixels; features need at least "
                        f"{MIN_FRAME_SIDE}×{MIN_FRAME_SIDE}")
     prev = previous.image if previous is not None else None
-    stats = frame_statistics(image, prev)
+    analysis = analysis_image(image)
+    stats = frame_statistics(image, prev, analysis=analysis,
+                             previous_analysis=previous.analysis if previous is not None else None)
     entries = tuple(estimate_context(vocab, given, image, prev, stats=stats).entries())
-    return Conditions(entries, {e.dimension: e.value for e in entries}, image, stats)
+    return Conditions(entries, {e.dimension: e.value for e in entries}, image, stats, analysis)

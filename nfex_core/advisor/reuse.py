@@ -10,11 +10,25 @@ and candidates — without extraction or scoring — when
 Both numbers are data (rules/pruning/thresholds.ttl). The shipped nfex:decisionReuseFrames is 0: reuse is
 off, so a stream's answers equal per-frame scoring (README's evaluations rely on it); a deployment that
 prefers throughput sets it (``nfex kg update``) and the Selection says ``reused: n`` for every reused answer.
+
+A service session (``session=True``) reuses on the evidence the decision rests on instead of the raw
+statistics: frame t+1 keeps the decision made on frame d ≤ t when
+
+    the given context, the graph version, the budget and the model are those of frame d; the estimated
+    dimensions of E equal frame d's, or have differed for fewer than nfex:sessionConditionFrames frames in a row
+    (an estimate that flickers at a threshold for a frame is not a change of conditions); the last verification
+    verdict did not reject α* (the pair was accepted on the first proposal, or no verdict was reported); and
+    fewer than nfex:sessionDecisionFrames − 1 frames have reused it,
+
+so a session re-decides on a change of the given context, on an estimate that holds, on a rejected pair, and
+at least every nfex:sessionDecisionFrames frames (both data: rules/pruning/thresholds.ttl). A reused frame
+extracts α* alone (the stream's features stay those of neighbouring frames for the next decision's temporal
+metrics).
 """
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
@@ -30,6 +44,8 @@ class ReuseTerms:
 
     frames: int = 0
     change: float = 0.0
+    session: int = 0  # nfex:sessionDecisionFrames: a session's decision serves at most this many frames (0, 1: each scored)
+    hold: int = 1  # nfex:sessionConditionFrames: frames in a row a changed estimate must hold to re-decide a session
 
     @classmethod
     def load(cls, kg: KnowledgeGraph) -> ReuseTerms:
@@ -40,7 +56,12 @@ class ReuseTerms:
             return float(py(rows[0]["v"])) if rows else None
 
         frames, change = value("decisionReuseFrames"), value("decisionReuseChange")
-        return cls(max(0, int(frames or 0)), max(0.0, change or 0.0))
+        return cls(max(0, int(frames or 0)), max(0.0, change or 0.0), max(0, int(value("sessionDecisionFrames") or 0)),
+                   max(1, int(value("sessionConditionFrames") or 1)))
+
+    def limit(self, session: bool) -> int:
+        """How many frames in a row may reuse one decision (0: none)."""
+        return max(0, self.session - 1) if session else self.frames
 
 
 @dataclass(frozen=True)
@@ -52,6 +73,8 @@ class Decided:
     stats: Mapping[str, float]
     selection: Any
     reused: int = 0
+    estimate: tuple[tuple[str, str | None], ...] = ()  # a session's estimated dimensions when it was decided
+    differed: int = 0  # frames in a row whose estimate differed from ``estimate``
 
 
 def moved(before: Mapping[str, float], after: Mapping[str, float], keys: tuple[str, ...]) -> float:
@@ -61,7 +84,16 @@ def moved(before: Mapping[str, float], after: Mapping[str, float], keys: tuple[s
 
 
 def reusable(terms: ReuseTerms, last: Decided | None, key: tuple[Any, ...], stats: Mapping[str, float] | None,
-             keys: tuple[str, ...]) -> bool:
-    """Whether ``last`` answers a frame decided under ``key`` with ``stats`` (module docstring)."""
-    return (last is not None and stats is not None and last.reused < terms.frames and last.key == key
-            and moved(last.stats, stats, keys) <= terms.change)
+             keys: tuple[str, ...], session: bool = False, verdict_held: bool = True,
+             estimate: tuple[tuple[str, str | None], ...] = ()) -> Decided | None:
+    """``last`` carried to a frame decided under ``key`` with ``stats`` (and, in a session, ``estimate``) if it may
+    answer it (module docstring), else None: in a stream while the statistics have not moved, in a session while
+    its evidence holds."""
+    if last is None or stats is None or last.reused >= terms.limit(session) or last.key != key:
+        return None
+    if not session:
+        return replace(last, reused=last.reused + 1) if moved(last.stats, stats, keys) <= terms.change else None
+    if not verdict_held:
+        return None
+    differed = 0 if estimate == last.estimate else last.differed + 1
+    return replace(last, reused=last.reused + 1, differed=differed) if differed < terms.hold else None

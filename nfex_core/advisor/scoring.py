@@ -1,7 +1,7 @@
 """Stage 4 of the flow, scoring: a score per candidate, from the frame or, without one, from the graph.
 
 On a frame (paper §IV-A, step 2, extended by measured accuracy): each candidate is extracted with its Θ′
-on a QVGA-sized copy of the frame (count parameters scaled to its size) and scored
+on a QQVGA-sized copy of the frame (``SCORE_PIXELS``; count parameters scaled to its size) and scored
 
     score(α) = F_metrics(α | Θ′, E) + H·A(α),   F_metrics = Σ_x h_x(E)·m_x (+ bonus),   H = Σ_x h_x(E),
 
@@ -12,8 +12,10 @@ scores when its own first choice is a candidate; the candidates it was not train
 with probability 0 and not extracted at all.
 
 Only what can still win is extracted (Scorer): SelectorNet's choice is settled by interval bounds over the
-metrics not yet measured, and under F_metrics a candidate whose best reachable score is below the leader's is
-skipped; α* and Θ′ are those of scoring every candidate.
+metrics not yet measured, and under F_metrics every score is bounded from both sides before extraction
+(bounds.py) and only what can narrow the leader's margin is extracted — nothing, where the bounds alone settle
+α*; α* and Θ′ are those of scoring every candidate. The Selection's ``scoring`` says which (scored, settled,
+unscored) and how many extractions and pixels it took.
 
 Without a frame (mode ``prior``): score(α) = bonus + A(α), computed once per context and snapshot.
 """
@@ -28,28 +30,34 @@ from typing import Any
 
 import numpy as np
 
+from ..cost import CostModel
 from ..fitness import f_metrics
 from ..kg.vocab import ExtractorSpec, Value, Vocabulary
 from ..neural.serve import BoundedChoice, NeuralStep
 from ..rules.types import Decision
+from .bounds import contenders, next_extraction, score_bounds, settled_reason
 from .params import Candidate, Parameters
 from .reuse import Decided
-from .selection import CandidateEvidence, CandidateScore
+from .selection import SCORED, SETTLED, CandidateEvidence, CandidateScore, Scoring
 
-SCORE_PIXELS = 320 * 240  # QVGA: the scoring copy's pixel count, whatever the aspect ratio (KITTI: 503×152)
+# QQVGA: the scoring copy's pixel count, whatever the aspect ratio (KITTI: 251×76). bench/bench_resolution.py
+# (docs/results/resolution.json): on 71 frames of the shared sequences × 6 contexts, α* at 160×120 equals α* at
+# 320×240, at half and at a quarter of the frame's side on all 426 selections (each 96.2 % of α* on the full frame)
+SCORE_PIXELS = 160 * 120
 
 
 @dataclass(frozen=True)
 class FrameState:
     """What a stream keeps from one frame for the next: the scoring image, the Θ′ (at the scoring size) of every
     candidate exhaustive scoring would have extracted on it, the features of those actually extracted — the next
-    frame extracts the others from ``image`` only if its temporal metrics need them — and the decision a next
-    frame may reuse (reuse.py)."""
+    frame extracts the others from ``image`` only if its temporal metrics need them —, the decision a next frame
+    may reuse (reuse.py) and the copy of the frame its statistics were computed on (the next frame's motion)."""
 
     image: np.ndarray
     features: dict[str, Any]
     params: dict[str, dict[str, Value]] = field(default_factory=dict)
     decided: Decided | None = None
+    analysis: np.ndarray | None = None  # the frame statistics' copy of this frame: the next frame's motion reads it
 
     @property
     def owed(self) -> dict[str, dict[str, Value]]:
@@ -77,6 +85,7 @@ class Scored:
     candidates: list[CandidateScore]
     state: FrameState | None
     mode: str
+    scoring: Scoring | None = None
 
 
 @dataclass
@@ -86,13 +95,13 @@ class Scorer:
     Only what can still win is extracted (``exhaustive=False``, the default). Where SelectorNet is in use,
     the candidates it knows are extracted cheapest first until its choice is settled whatever the metrics
     of the rest (``NeuralStep.bounded_choice``: interval bounds over their [0, 1] range). Where F_metrics
-    decides, candidates are extracted in order of the best score they could reach,
-
-        score(α) ≤ bonus(α) + Σ_x max(0, h_x(E)) + H·A(α)      (every m_x ∈ [0, 1], vision.metrics),
-
-    and a candidate whose bound is below the leader's score is skipped. α*, Θ′ and the order of the scored
-    candidates are those of exhaustive scoring; skipped candidates are listed with ``score=None`` and the
-    reason. ``exhaustive=True`` scores every candidate (verification needs the full ranking)."""
+    decides, every candidate's score is bounded from both sides before anything is extracted (bounds.py: the
+    bonus, H·A and the range of each metric it will have); a candidate is extracted only while the leader's low
+    bound is below another's high bound, one at a time, the one whose extraction narrows that gap most per
+    expected ms. When the bounds settle α* nothing is extracted. α*, Θ′ and the order of the scored candidates
+    are those of exhaustive scoring; candidates not extracted are listed with the reason (α*, when settled by
+    bounds, with its least score). Where a verified pair tries the first ``top`` proposals, every candidate
+    that may be among them is scored, so their order is exact. ``exhaustive=True`` scores every candidate."""
 
     score_pixels: int = SCORE_PIXELS
     threads: int = 2
@@ -116,8 +125,12 @@ class Scorer:
         image: np.ndarray,
         previous: FrameState | None,
         exhaustive: bool = False,
+        cost: CostModel | None = None,
+        top: int = 1,
     ) -> Scored:
-        """Score the candidates of ``params`` on ``image`` that can still win (class docstring)."""
+        """Score the candidates of ``params`` on ``image`` that can still win (class docstring); ``cost`` gives each
+        candidate's expected extraction time at the scoring size (the order of extraction, bounds.py); ``top``: how
+        many of the first candidates must be in exact order (a verified pair's proposals)."""
         from ..vision.metrics import SINGLE_FRAME, TEMPORAL, compute_metrics
 
         small = downscale(image, self.score_pixels)
@@ -126,10 +139,22 @@ class Scorer:
         weight = sum(w.value for w in decision.weights.values())  # H: F_metrics' most without the bonus
         at_scale = {x: scaled(vocab.extractor(x), c.params, ratio) for x, c in params.candidates.items()}
         done: dict[str, tuple[CandidateScore, Any]] = {}
+        tally = _Tally()
 
-        def score(c: Candidate) -> tuple[CandidateScore, Any]:
+        def score(c: Candidate, alone: bool = False) -> tuple[CandidateScore, Any]:
+            owed = previous is not None and c.extractor not in previous.features and temporal(c.extractor)
+            # the previous frame's owed extraction runs beside this frame's (OpenCV releases the GIL); only when this
+            # candidate is scored alone, so a pool busy with a wave never waits on itself
+            beside = self.pool().submit(previous.previous, c.extractor, small.shape, registry) \
+                if owed and alone and previous is not None and self.threads > 1 else None
             feats = registry.extract(c.extractor, small, at_scale[c.extractor])
-            prev = previous.previous(c.extractor, small.shape, registry) if previous is not None else None
+            tally.add(small.size)
+            if beside is not None:
+                prev = beside.result()
+            else:
+                prev = previous.previous(c.extractor, small.shape, registry) if previous is not None else None
+            if owed and prev is not None:
+                tally.add(prev[1].size)
             metrics = compute_metrics(feats, small, prev)
             bonus = decision.bonuses[c.extractor].value if c.extractor in decision.bonuses else 0.0
             f = f_metrics(metrics, decision.weights, vocab.metrics, bonus)
@@ -142,24 +167,27 @@ class Scorer:
             ), feats
 
         def run(cs: list[Candidate]) -> None:
-            out = list(self.pool().map(score, cs)) if len(cs) > 1 else [score(c) for c in cs]
+            out = list(self.pool().map(score, cs)) if len(cs) > 1 else [score(c, alone=True) for c in cs]
             done.update((s.extractor, (s, feats)) for s, feats in out)
 
         def state(extracted_by_exhaustive: Iterable[str]) -> FrameState:
             features = {x: feats for x, (_, feats) in done.items()}
             return FrameState(small, features, {x: at_scale[x] for x in {*extracted_by_exhaustive, *done}})
 
+        def temporal(x: str) -> bool:
+            return previous is not None and previous.image.shape == small.shape and previous.has(x)
+
         def will_have(x: str) -> tuple[str, ...]:
             """The metrics candidate ``x`` will have once extracted on this frame."""
-            temporal = previous is not None and previous.image.shape == small.shape and \
-                previous.has(x)
-            return (*SINGLE_FRAME, *TEMPORAL) if temporal else SINGLE_FRAME
+            return (*SINGLE_FRAME, *TEMPORAL) if temporal(x) else SINGLE_FRAME
 
         everything = list(params.candidates.values())
         known = nn.selector_extractors if nn.selectornet else frozenset()
         first = sorted((c for c in everything if c.extractor in known), key=lambda c: expected_ms(decision, c))
-        if exhaustive:  # SelectorNet's candidates, or all; the rest below if it does not decide
-            run(first or everything)
+        if first and (exhaustive or top > 1):  # SelectorNet's candidates; the rest below if it does not decide
+            run(first)
+        elif exhaustive:
+            run(everything)
         # SelectorNet is masked to what it was trained on: its candidates are scored first; if it decides, the
         # others (probability 0 whatever their F_metrics) are not extracted at all
         while first:
@@ -168,7 +196,10 @@ class Scorer:
                 unknown = {c.extractor: will_have(c.extractor) for c in todo}
                 bound = nn.bounded_choice(image, {x: s.metrics for x, (s, _) in done.items()}, unknown, list(params.candidates))
                 if bound is not None and bound.allowed:
-                    return Scored(settled(decision, params, bound, known, done), state(c.extractor for c in first), "selectornet")
+                    listed = settled(decision, params, bound, known, done)
+                    return Scored(listed, state(c.extractor for c in first), "selectornet", tally.scoring(
+                        SCORED if bound.extractor in done else SETTLED,
+                        "SelectorNet's choice, settled by interval bounds over the metrics not measured"))
                 if bound is None:
                     run(todo[:1])  # cheapest first: each extraction may settle the choice
                     continue
@@ -177,30 +208,86 @@ class Scorer:
                 rest = [unscored(decision, c) for c in everything if c.extractor not in known]
                 ranked, decided = by_network(nn, image, scored, scored + rest)
                 if decided:
-                    return Scored(ranked, state(done), "selectornet")
+                    return Scored(ranked, state(done), "selectornet", tally.scoring(SCORED, "SelectorNet's probabilities"))
             break  # SelectorNet declines: F_metrics and the measured accuracy decide among all candidates
-        ceiling = {c.extractor: score_ceiling(decision, vocab, c.extractor, will_have(c.extractor),
-                                              accuracy.get(c.extractor, 0.0), weight) for c in everything}
-        waiting = sorted((c for c in everything if c.extractor not in done), key=lambda c: -ceiling[c.extractor])
+        by_name = {c.extractor: c for c in everything}
+        bounds = {x: score_bounds(decision, will_have(x), vocab.metrics, x, accuracy.get(x, 0.0), weight) for x in by_name}
+        ms = {x: extraction_ms(cost, vocab, x, at_scale[x], small.shape, decision, by_name[x]) * (1 + (
+            previous is not None and temporal(x) and x not in previous.features)) for x in by_name}
+
+        def intervals() -> dict[str, tuple[float, float]]:
+            out = dict(bounds)
+            for x, (s, _) in done.items():
+                out[x] = (s.score, s.score) if s.score is not None else out[x]
+            return out
+
+        if exhaustive:
+            run([c for c in everything if c.extractor not in done])
+        while (pick := next_extraction(intervals(), [x for x in by_name if x not in done], ms, top)) is not None:
+            run([by_name[pick]])
+        final = intervals()
+        alpha, _ = contenders(final)
         skipped: dict[str, str] = {}
-        while waiting:
-            leader = max((s for s, _ in done.values()), key=lambda s: s.score if s.score is not None else -math.inf, default=None)
-            if leader is not None and leader.score is not None and not exhaustive:
-                for c in [c for c in waiting if ceiling[c.extractor] < leader.score - SCORE_MARGIN]:
-                    skipped[c.extractor] = (f"cannot overtake {leader.extractor} ({leader.score:.4f}): its score is at most "
-                                            f"{ceiling[c.extractor]:.4f} whatever its metrics")
-                waiting = [c for c in waiting if c.extractor not in skipped]
-            # the most promising alone first (it sets the bar), then side by side
-            wave = 1 if not done and not exhaustive else max(1, self.threads)
-            run(waiting[:wave])
-            waiting = waiting[wave:]
+        for x in by_name:
+            if x in done:
+                continue
+            if x == alpha:
+                skipped[x] = settled_reason(final, x)
+            elif top > 1:
+                skipped[x] = (f"cannot be among the first {top} proposals: {top} candidates score more than its "
+                              f"most, {final[x][1]:.4f}, whatever its metrics")
+            else:
+                skipped[x] = (f"cannot overtake {alpha} ({final[alpha][0]:.4f}): its score is at most "
+                              f"{final[x][1]:.4f} whatever its metrics")
         # listed in the order exhaustive scoring lists them (SelectorNet's first), which breaks exact ties
         order = sorted(everything, key=lambda c: c.extractor not in known)
-        listed = [done[c.extractor][0] if c.extractor in done else unscored(decision, c, skipped[c.extractor]) for c in order]
-        return Scored(listed, state(params.candidates), "metrics")
+        listed = []
+        for c in order:
+            if c.extractor in done:
+                listed.append(done[c.extractor][0])
+            elif c.extractor == alpha:
+                low = final[alpha][0]
+                base = unscored(decision, c, skipped[alpha])
+                listed.append(replace(base, score=low, bonus=decision.bonuses[alpha].value if alpha in decision.bonuses else 0.0,
+                                      evidence=replace(base.evidence, measured_accuracy=accuracy.get(alpha, 0.0))))
+            else:
+                listed.append(unscored(decision, c, skipped[c.extractor]))
+        if alpha in done:
+            how = tally.scoring(SCORED, f"F_metrics + H·A on the frame; {len(done)} of {len(by_name)} candidates "
+                                f"extracted, the others cannot overtake {alpha} whatever their metrics")
+        else:
+            how = tally.scoring(SETTLED, f"{alpha} {skipped[alpha]}")
+        return Scored(listed, state(params.candidates), "metrics", how)
 
 
-SCORE_MARGIN = 1e-9  # a candidate is skipped only if its ceiling is below the leader by more than rounding
+class _Tally:
+    """The extractions one request ran and their pixels (FrameState's owed extractions included)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self.extractions = 0
+        self.pixels = 0
+
+    def add(self, pixels: int) -> None:
+        with self._lock:
+            self.extractions += 1
+            self.pixels += int(pixels)
+
+    def scoring(self, outcome: str, reason: str) -> Scoring:
+        return Scoring(outcome, reason, self.extractions, self.pixels)
+
+
+def extraction_ms(cost: CostModel | None, vocab: Vocabulary, extractor: str, params: Mapping[str, Value],
+                  shape: tuple[int, ...], decision: Decision, c: Candidate) -> float:
+    """A candidate's expected extraction time at the scoring size: the cost model's, else the budget's or the
+    measured mean (bounds.py orders extractions by it; unknown: infinite, extracted last among equals)."""
+    if cost is not None:
+        est = cost.expected(vocab.extractor(extractor), params, int(shape[1]), int(shape[0]))
+        if est.ms is not None and est.ms > 0:
+            return est.ms
+    return expected_ms(decision, c)
+
+
 
 
 def expected_ms(decision: Decision, c: Candidate) -> float:
@@ -214,12 +301,8 @@ def expected_ms(decision: Decision, c: Candidate) -> float:
 
 def score_ceiling(decision: Decision, vocab: Vocabulary, extractor: str, metrics: Iterable[str], accuracy: float,
                   weight: float) -> float:
-    """The most F_metrics + H·A can give ``extractor`` on this frame: its bonus, each of the ``metrics`` it will have
-    at its best (fitness.f_metrics weighs an unweighted metric 1; an absent one adds nothing) and its measured
-    accuracy."""
-    bonus = decision.bonuses[extractor].value if extractor in decision.bonuses else 0.0
-    best = sum(max(0.0, decision.weights[m].value if m in decision.weights else 1.0) for m in metrics if m in vocab.metrics)
-    return bonus + best + weight * accuracy
+    """The most F_metrics + H·A can give ``extractor`` on this frame (bounds.score_bounds' high bound)."""
+    return score_bounds(decision, metrics, vocab.metrics, extractor, accuracy, weight)[1]
 
 
 def settled(decision: Decision, params: Parameters, bound: BoundedChoice, known: frozenset[str],

@@ -15,7 +15,29 @@ from ..evidence import ROBUST
 from ..kg.vocab import Value
 from ..rules.types import NO_POLICY, Adjustment, Citation, Evidence, Factor, MeasuredConfiguration, Policy
 
-__all__ = ["CandidateEvidence", "CandidateScore", "ContextEntry", "PrunedCandidate", "Selection"]
+__all__ = ["CandidateEvidence", "CandidateScore", "ContextEntry", "PrunedCandidate", "Scoring", "Selection"]
+
+SCORED, SETTLED, UNSCORED = "scored", "settled", "unscored"
+
+
+@dataclass(frozen=True)
+class Scoring:
+    """How α* was reached on this request, and the work it took:
+
+    - ``outcome``: ``scored`` (α* was extracted and scored on the frame), ``settled`` (bounds settled α* without
+      extracting it: advisor/bounds.py, or SelectorNet's interval bounds), ``unscored`` (no frame, or a stream's
+      decision reused);
+    - ``reason``: why, in words;
+    - ``extractions`` / ``pixels``: feature extractions run for this answer (the previous frame's owed ones
+      included) and the pixels they processed."""
+
+    outcome: str
+    reason: str
+    extractions: int = 0
+    pixels: int = 0
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"outcome": self.outcome, "reason": self.reason, "extractions": self.extractions, "pixels": self.pixels}
 
 
 @dataclass(frozen=True)
@@ -124,6 +146,7 @@ class Selection:
     verification: Policy = NO_POLICY  # how the client (or the VO) judges each proposal's pair estimate
     escalations: tuple[CandidateScore, ...] = ()  # under a budget: candidates within the per-frame cap, best first
     reused: int = 0  # in a stream: frames this answer has been reused without scoring (advisor/reuse.py); 0: scored here
+    scoring: Scoring | None = None  # how α* was reached and the extractions it took
     recipe: Callable[[str, Mapping[str, Value]], dict[str, Any]] | None = field(default=None, compare=False, repr=False)
     # (extractor, Θ′) → its ``opencv`` (ExtractorSpec.opencv): each proposal carries one, so a client runs it as the server would
 
@@ -170,4 +193,5 @@ class Selection:
             "versions": self.versions,
             "timings_ms": {k: round(v, 3) for k, v in self.timings_ms.items()},
             "reused": self.reused,
+            "scoring": self.scoring.as_dict() if self.scoring is not None else None,
         }

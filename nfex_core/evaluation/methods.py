@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from nfex_slam.datasets.base import Frame
-from nfex_slam.pairs import NEXT, PairEvidence, Prior, Verdict
+from nfex_slam.pairs import ACCEPT, NEXT, PairEvidence, Prior, Verdict
 from nfex_slam.vo import Choice, Chooser, FrameRecord, Proposals, fixed
 
 from ..errors import BadInput
@@ -109,19 +109,26 @@ def tuned_static(table: RuleTable) -> tuple[str, dict[str, Value], str]:
 
 @dataclass
 class AdvisorChooser:
-    """The nFEX advisor as a VO chooser: one selection per frame, the stream state carried along."""
+    """The nFEX advisor as a VO chooser: one selection per frame, the stream state carried along. ``session``: run
+    as a service session does (advisor/reuse.py: the decision reused while its evidence — the condition estimate
+    and this loop's own verdicts — holds), so the loop equals a client's session frame for frame."""
 
     advisor: Advisor
     context: Mapping[str, str]
     budget_ms: float | None = None
+    session: bool = False
     selections: list[dict[str, Any]] = field(default_factory=list)
     _state: Any = None
+    _held: bool = True  # the last judged pair did not reject α* (service/routes/sessions.py keeps the same)
     _window: BudgetWindow | None = None
     _frame_ms: float = 0.0  # the expected ms of the frame in progress (its tries so far)
 
     def __call__(self, frame: Frame, history: list[FrameRecord]) -> Choice | Proposals:
-        sel = self.advisor.select({**self.context, **frame.context}, frame.image, self._state, budget_ms=self.budget_ms)
+        sel = self.advisor.select({**self.context, **frame.context}, frame.image, self._state, budget_ms=self.budget_ms,
+                                  session=self.session, verdict_held=self._held)
         self._state = sel.state
+        if not sel.reused:
+            self._held = True
         self.selections.append({
             "frame": frame.index, "extractor": sel.extractor, "params": sel.params, "mode": sel.mode,
             "pruned": [p.extractor for p in sel.pruned],
@@ -135,7 +142,7 @@ class AdvisorChooser:
         policy, proposals = sel.verification, sel.proposals
         if self.budget_ms is None:
             return Proposals(tuple(Choice(c.extractor, dict(c.params)) for c in proposals),
-                             lambda tried, prior, remaining: judge(policy, tried, prior, remaining))
+                             lambda tried, prior, remaining: self._judged(judge(policy, tried, prior, remaining)))
         if self._window is None:
             terms = self.advisor.snapshot().table.budget_terms
             self._window = BudgetWindow(self.budget_ms, terms.window, terms.verification_cap)
@@ -150,20 +157,27 @@ class AdvisorChooser:
             if v.action == NEXT and not window.allows(sum(costs[: len(tried)]), costs[len(tried)]):
                 v = judge(policy, tried, prior, 0)  # the next candidate does not fit: decide on what was tried
             self._frame_ms = sum(c for c in costs[: len(tried) + (v.action == NEXT)] if math.isfinite(c))
-            return v
+            return self._judged(v)
 
         return Proposals(tuple(Choice(c.extractor, dict(c.params)) for c in proposals), within_budget)
+
+    def _judged(self, v: Verdict) -> Verdict:
+        """Keep whether a final verdict held α* (accepted on the first proposal) for the next frame's reuse."""
+        if v.action != NEXT:
+            self._held = v.action == ACCEPT and v.accepted == 0
+        return v
 
 
 def chooser_for(
     method: str, vocab: Vocabulary, table: RuleTable, advisor: Advisor | None, context: Mapping[str, str],
-    budget_ms: float | None = None,
+    budget_ms: float | None = None, session: bool = False,
 ) -> tuple[Chooser, str]:
-    """The chooser of ``method`` and a note saying which parameters it runs with."""
+    """The chooser of ``method`` and a note saying which parameters it runs with (``session``: nFEX as a service
+    session, AdvisorChooser)."""
     if method == NFEX:
         if advisor is None:
             raise BadInput("the nfex method needs an advisor")
-        return AdvisorChooser(advisor, context, budget_ms), "advisor per frame" + (
+        return AdvisorChooser(advisor, context, budget_ms, session), ("advisor as a session" if session else "advisor per frame") + (
             f", budget {budget_ms:g} ms" if budget_ms is not None else "")
     if method == TUNED:
         x, params, note = tuned_static(table)

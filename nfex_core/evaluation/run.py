@@ -170,9 +170,11 @@ def evaluate(
     oracle: bool = False,
     control: bool = True,
     progress: bool = False,
+    session: bool = False,
 ) -> Evaluation:
     """Run every method (and nFEX at each budget) on ``sequence`` under each condition, ``runs`` paired times;
-    with ``control``, the motion-prior control beside them."""
+    with ``control``, the motion-prior control beside them.
+    ``session``: nFEX decides as a service session does (methods.AdvisorChooser)."""
     from ..advisor import Advisor
     from ..rules.engine import RuleEngine
     from ..vision.registry import ExtractorRegistry
@@ -206,7 +208,7 @@ def evaluate(
             static_runs: dict[str, VOResult] = {}
             prior_source: VOResult | None = None
             for method, budget in jobs:
-                chooser, note = chooser_for(method, vocab, table, advisor, context, budget)
+                chooser, note = chooser_for(method, vocab, table, advisor, context, budget, session)
                 rec = trial.measure(method, chooser, note, budget)
                 if method in static and rec.result is not None:
                     static_runs[method] = rec.result

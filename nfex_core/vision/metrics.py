@@ -5,7 +5,7 @@ that means the same for every extractor: computed on the features' positions, on
 intensity patches around them (not on each extractor's own scale) and on descriptor distances
 normalised by the largest distance the descriptor kind allows. Where the paper leaves a definition
 open a standard one is used, named in each function. ``PATCH`` (7×7 px), ``SHIFT`` (2 px),
-``GRID`` (16 cells on the longer side) and ``EPSILON`` (3 px) are at the scoring resolution (a QVGA-sized copy, ``Advisor.score_pixels``).
+``GRID`` (16 cells on the longer side) and ``EPSILON`` (3 px) are at the scoring resolution (a QQVGA-sized copy, ``Advisor.score_pixels``).
 
 Single-frame metrics: m1 texturedness, m2 dissimilarity, m5 density, m6 distinctiveness. Temporal
 metrics — m3 motion (lower is better), m4 stability, m7 repeatability — need the previous frame's

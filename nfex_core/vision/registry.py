@@ -23,6 +23,7 @@ backend loads its model once per process, on its first extraction.
 """
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -36,11 +37,32 @@ from ..kg.vocab import ExtractorSpec, Value, Vocabulary
 from .backends import backend
 
 
+class Work:
+    """The extractions a registry has run and the pixels they processed: work counted, not timed (the tests
+    assert how much a selection extracts with it)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self.extractions = 0
+        self.pixels = 0
+
+    def add(self, pixels: int) -> None:
+        with self._lock:
+            self.extractions += 1
+            self.pixels += pixels
+
+    def totals(self) -> tuple[int, int]:
+        """(extractions, pixels) so far."""
+        with self._lock:
+            return self.extractions, self.pixels
+
+
 class ExtractorRegistry:
     """Extractors by name, as the graph describes them; each runs on its backend (vision.backends)."""
 
     def __init__(self, specs: Mapping[str, ExtractorSpec], settings: Settings | None = None) -> None:
         self.specs = dict(specs)
+        self.work = Work()
         self.settings = settings or Settings.from_env()  # a learned backend's runtime, threads, weights, cache
         self._extract_fns: dict[str, Callable[..., Features]] = {}
 
@@ -96,6 +118,7 @@ class ExtractorRegistry:
             entry = backend(spec.backend)
             entry.availability(self.settings).require()
             fn = self._extract_fns[spec.backend] = entry.extract_function()
+        self.work.add(int(image.shape[0]) * int(image.shape[1]))
         return fn(spec, as_grey_u8(image), full, mask, self.settings)
 
 

@@ -107,9 +107,12 @@ def _flow(prev: np.ndarray, cur: np.ndarray) -> tuple[float, float, float]:
     return float(np.median(mag)), float(np.percentile(mag, 90)), float(ok.mean())
 
 
-def frame_statistics(image: np.ndarray, previous_image: np.ndarray | None = None) -> dict[str, float]:
-    """The statistics of ``image`` (and of the motion from ``previous_image``), keyed as in the table above."""
-    a = analysis_image(image)
+def frame_statistics(image: np.ndarray, previous_image: np.ndarray | None = None, *, analysis: np.ndarray | None = None,
+                     previous_analysis: np.ndarray | None = None) -> dict[str, float]:
+    """The statistics of ``image`` (and of the motion from ``previous_image``), keyed as in the table above.
+    ``analysis`` / ``previous_analysis``: the frames' ``analysis_image`` where the caller has them (a stream keeps
+    the last frame's, so the motion is measured between two copies of the same size made the same way)."""
+    a = analysis if analysis is not None else analysis_image(image)
     hist = np.bincount(a.ravel(), minlength=256).astype(np.float64)
     n = hist.sum()
     levels = np.arange(256, dtype=np.float64)
@@ -133,8 +136,8 @@ def frame_statistics(image: np.ndarray, previous_image: np.ndarray | None = None
     out["anisotropy"] = float(np.sqrt((jxx - jyy) ** 2 + 4 * jxy * jxy) / tr) if tr > 1e-9 else 0.0
     out["blur_direction"] = _directional_detail(a)
     out["highlight_fraction"], out["highlight_blobs"] = _highlights(a)
-    if previous_image is not None:
-        b = analysis_image(previous_image)
+    if previous_analysis is not None or previous_image is not None:
+        b = previous_analysis if previous_analysis is not None else analysis_image(previous_image)  # type: ignore[arg-type]
         if b.shape != a.shape:
             b = cv2.resize(b, (a.shape[1], a.shape[0]), interpolation=cv2.INTER_AREA)
         out["flow_median"], out["flow_p90"], out["flow_valid"] = _flow(b, a)

@@ -49,12 +49,15 @@ async def post_frame(session_id: str, request: Request, sessions: SessionsDep, a
 
     def work() -> dict[str, Any]:
         with session.lock:  # frames of one stream in order: each needs the state the last one left
-            selection = advisor.select(context, frame, session.state)
+            selection = advisor.select(context, frame, session.state, session=True, verdict_held=session.verdict_held)
             temporal = session.state is not None
             sessions.keep(session, selection.state)
             session.pending = (selection.proposals, selection.verification)
+            if not selection.reused:  # a new decision: no verdict has judged it yet
+                session.verdict_held = True
             out = selection.as_dict()
-            out["session"] = {"id": session.id, "frame": session.frames, "temporal": temporal}
+            out["session"] = {"id": session.id, "frame": session.frames, "temporal": temporal,
+                              "reused": selection.reused > 0}
             return out
 
     return await run_in_threadpool(work)
@@ -84,6 +87,8 @@ def post_verdict(session_id: str, body: VerdictRequest, sessions: SessionsDep) -
             out["next"] = {"extractor": nxt.extractor, "params": nxt.params}
             return out
         session.pending = None
+        # the decision stands while its first proposal is accepted; an escalation or a fallback re-decides the next frame
+        session.verdict_held = verdict.action == ACCEPT and verdict.accepted == 0
         if verdict.action == ACCEPT and verdict.accepted is not None:
             e = tried[verdict.accepted]
             if e.parallax_px >= STILL_PX:

@@ -205,6 +205,16 @@ class Verification(Out):
     proposals: list[Proposal] = Field(..., description="The candidates to try, in order (one per extractor).")
 
 
+class Scoring(Out):
+    """How α* was reached on this request and the extraction work it took (nfex_core/advisor/bounds.py)."""
+
+    outcome: str = Field(..., description="scored (α* extracted and scored on the frame) | settled (bounds settled α* "
+                         "without extracting it) | unscored (no frame, or a stream's decision reused)")
+    reason: str
+    extractions: int = Field(..., description="Feature extractions run for this answer (a stream's owed ones included).")
+    pixels: int = Field(..., description="Pixels those extractions processed.")
+
+
 class Selection(Out):
     """α*, Θ′ and why."""
 
@@ -221,8 +231,10 @@ class Selection(Out):
     warnings: list[str]
     versions: Versions
     timings_ms: dict[str, float]
-    reused: int = Field(0, description="In a session: how many frames in a row this answer has been reused because the "
-                                       "context and frame statistics did not move (nfex:decisionReuseFrames); 0: scored on this frame.")
+    reused: int = Field(0, description="In a stream: how many frames in a row this answer has been reused because its "
+                                       "evidence did not move (a session: nfex:sessionDecisionFrames; other streams: "
+                                       "nfex:decisionReuseFrames); 0: decided on this frame.")
+    scoring: Scoring | None = Field(None, description="How α* was reached and the extractions it took.")
     keypoints: Keypoints | None = Field(None, description="Only with ?keypoints=true and a frame.")
 
 
@@ -230,6 +242,8 @@ class StreamPosition(Out):
     id: str
     frame: int
     temporal: bool = Field(..., description="Whether temporal metrics and motion had a previous frame.")
+    reused: bool = Field(False, description="Whether this frame kept the session's last decision because its evidence "
+                         "(the condition estimate, the last verification verdict) had not moved (nfex:sessionDecisionFrames).")
 
 
 class Verdict(Out):

@@ -31,7 +31,7 @@ def test_replay_kitti01_through_a_session(service: Service, data_dir: Path, tmp_
 def _replay_and_evaluate(template: Path, settings: Any, data_dir: Path, tmp_path: Path, frames: int,
                          *programs_: Path) -> tuple[Any, Any]:
     """The replay through a running service on one copy of ``template`` and `nfex evaluate`'s nfex run 0 on
-    another (``programs_`` applied to both first)."""
+    another, deciding as a session does (``programs_`` applied to both first)."""
     import shutil
 
     from nfex_slam.datasets import open_sequence
@@ -60,7 +60,7 @@ def _replay_and_evaluate(template: Path, settings: Any, data_dir: Path, tmp_path
         stop_process(svc.proc)
     kg = KnowledgeGraph.open(str(tmp_path / "local"), settings=settings)
     try:
-        [run] = evaluate(seq, kg, methods=["nfex"], runs=1, frames=frames).records
+        [run] = evaluate(seq, kg, methods=["nfex"], runs=1, frames=frames, session=True).records
     finally:
         kg.close()
     return res, run

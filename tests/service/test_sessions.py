@@ -8,6 +8,7 @@ import httpx
 import numpy as np
 import pytest
 
+from nfex_core.advisor.scoring import SCORE_PIXELS
 from nfex_core.errors import NotFound
 from service.sessions import SessionStore, TooManySessions
 
@@ -26,10 +27,15 @@ def test_session_lifecycle(service: Service) -> None:
                for _ in range(2)]
     assert all(x.status_code == 200 for x in results), results[0].text
     assert [x.json()["session"]["temporal"] for x in results] == [False, True]
+    # the same frame again: its evidence has not moved, the decision is reused with α* alone extracted
+    assert [x.json()["session"]["reused"] for x in results] == [False, True]
+    assert results[1].json()["reused"] == 1 and results[1].json()["scoring"]["outcome"] == "unscored"
+    assert results[1].json()["scoring"]["extractions"] == 1
+    assert results[1].json()["extractor"] == results[0].json()["extractor"]
     state = httpx.get(f"{service.url}/v1/sessions/{sid}").json()
     assert state["frames"] == 2 and state["has_previous"]
     # the scoring image, and the keypoints and descriptors of the candidates extracted on it (if any)
-    assert state["state_bytes"] >= 240 * 320
+    assert state["state_bytes"] >= SCORE_PIXELS
     assert "nfex_session_state_bytes" in httpx.get(service.url + "/metrics").text
     r = httpx.post(f"{service.url}/v1/sessions/{sid}/frames", json={"context": {}})
     assert_problem(r, 400, "bad-input")  # a stream frame needs an image

@@ -320,6 +320,15 @@ class RuleTable(TypedDict):
     kept: NotRequired[bool]
 
 
+class Scoring(TypedDict):
+    """How α* was reached on this request and the extraction work it took (nfex_core/advisor/bounds.py)."""
+
+    outcome: str
+    reason: str
+    extractions: int
+    pixels: int
+
+
 class Selection(TypedDict):
     """α*, Θ′ and why."""
 
@@ -337,6 +346,7 @@ class Selection(TypedDict):
     versions: Versions
     timings_ms: dict[str, float]
     reused: NotRequired[int]
+    scoring: NotRequired[Scoring | None]
     keypoints: NotRequired[Keypoints | None]
 
 
@@ -367,6 +377,7 @@ class SessionSelection(TypedDict):
     versions: Versions
     timings_ms: dict[str, float]
     reused: NotRequired[int]
+    scoring: NotRequired[Scoring | None]
     keypoints: NotRequired[Keypoints | None]
     session: StreamPosition
 
@@ -398,6 +409,7 @@ class StreamPosition(TypedDict):
     id: str
     frame: int
     temporal: bool
+    reused: NotRequired[bool]
 
 
 class Verdict(TypedDict):
@@ -479,4 +491,4 @@ class WriteResult(TypedDict):
     iri: NotRequired[str | None]
 
 
-__all__ = ['AcceptRule', 'Adjustment', 'BackendStatus', 'Budget', 'Candidate', 'Citation', 'ConditionValue', 'Conditions', 'ContextEntry', 'Diff', 'Dimension', 'DimensionValues', 'Evidence', 'Extractor', 'ExtractorBrief', 'ExtractorList', 'Grid', 'Head', 'Health', 'Keypoints', 'MeasuredConfiguration', 'MetricBrief', 'ModelInfo', 'OpenCV', 'Parameter', 'ParameterBrief', 'Problem', 'Program', 'ProgramInfo', 'ProgramList', 'Proposal', 'Pruned', 'Ready', 'Report', 'ReportList', 'Rule', 'RuleList', 'RuleTable', 'Selection', 'Session', 'SessionSelection', 'ShaclProcessStatus', 'SparqlBindings', 'SparqlHead', 'SparqlResults', 'StreamPosition', 'Verdict', 'Verification', 'VersionChanges', 'VersionInfo', 'VersionList', 'Versions', 'Vocabulary', 'Weight', 'WriteResult']
+__all__ = ['AcceptRule', 'Adjustment', 'BackendStatus', 'Budget', 'Candidate', 'Citation', 'ConditionValue', 'Conditions', 'ContextEntry', 'Diff', 'Dimension', 'DimensionValues', 'Evidence', 'Extractor', 'ExtractorBrief', 'ExtractorList', 'Grid', 'Head', 'Health', 'Keypoints', 'MeasuredConfiguration', 'MetricBrief', 'ModelInfo', 'OpenCV', 'Parameter', 'ParameterBrief', 'Problem', 'Program', 'ProgramInfo', 'ProgramList', 'Proposal', 'Pruned', 'Ready', 'Report', 'ReportList', 'Rule', 'RuleList', 'RuleTable', 'Scoring', 'Selection', 'Session', 'SessionSelection', 'ShaclProcessStatus', 'SparqlBindings', 'SparqlHead', 'SparqlResults', 'StreamPosition', 'Verdict', 'Verification', 'VersionChanges', 'VersionInfo', 'VersionList', 'Versions', 'Vocabulary', 'Weight', 'WriteResult']

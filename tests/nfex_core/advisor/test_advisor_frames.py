@@ -4,6 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import cv2
+import numpy as np
 from nfex_slam.datasets.synthetic import make_sequence
 
 from nfex_core.advisor.advisor import Advisor
@@ -69,9 +70,9 @@ def test_frame_statistics_are_computed_once_per_request(kg: KnowledgeGraph, data
     calls: list[tuple[int, ...]] = []
     real = statistics.frame_statistics
 
-    def counting(image, previous_image=None):  # type: ignore[no-untyped-def]
+    def counting(image, previous_image=None, **analysis):  # type: ignore[no-untyped-def]
         calls.append(image.shape)
-        return real(image, previous_image)
+        return real(image, previous_image, **analysis)
 
     monkeypatch.setattr(statistics, "frame_statistics", counting)
     monkeypatch.setattr(context, "frame_statistics", counting)
@@ -114,3 +115,25 @@ def test_when_bounds_settle_selectornet_nothing_that_cannot_win_is_extracted(kg:
             assert c.score == 0.0 and c.keypoints is None
     extracted = {c.extractor for c in sel.candidates if c.keypoints}
     assert extracted < {c.extractor for c in exact.candidates if c.keypoints}  # something was not extracted
+
+
+def test_a_stream_measures_motion_between_the_statistics_copies(kg: KnowledgeGraph, data_dir: Path) -> None:
+    """The next frame's flow statistics read the copy the last frame's statistics were computed on (kept in the
+    FrameState), not the smaller scoring copy enlarged: the same numbers as computing both copies afresh."""
+    from nfex_core.vision.statistics import FLOW_KEYS, analysis_image, frame_statistics
+
+    files = sorted((data_dir / KITTI).glob("*.png"))
+    a, b = (cv2.imread(str(f), cv2.IMREAD_GRAYSCALE) for f in files[40:42])
+    advisor = Advisor(kg, neural="symbolic")
+    first = advisor.select({"agent": "car"}, a)
+    assert first.state is not None and first.state.analysis is not None
+    np.testing.assert_array_equal(first.state.analysis, analysis_image(a))
+    assert first.state.image.size < first.state.analysis.size  # the scoring copy is the smaller one
+    expected = frame_statistics(b, a)
+    got = advisor.select({"agent": "car"}, b, first.state)
+    # the advisor's flow equals the one between the two frames' own analysis copies (what the estimators read)
+    from nfex_core.advisor.conditions import read_conditions
+
+    cond = read_conditions(advisor.snapshot().vocab, {"agent": "car"}, b, first.state)
+    assert cond.stats is not None and {k: cond.stats[k] for k in FLOW_KEYS} == {k: expected[k] for k in FLOW_KEYS}
+    assert got.context == cond.entries

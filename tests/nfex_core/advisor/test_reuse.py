@@ -39,7 +39,7 @@ def test_the_shipped_graph_scores_every_frame(kg: KnowledgeGraph, data_dir: Path
 
 def test_a_still_frame_reuses_the_decision_at_most_n_frames(kg: KnowledgeGraph, data_dir: Path) -> None:
     allow_reuse(kg, 2)
-    assert ReuseTerms.load(kg) == ReuseTerms(2, 0.05)
+    assert ReuseTerms.load(kg) == ReuseTerms(2, 0.05, 30, 2)
     image = cv2.imread(str(sorted((data_dir / FRAMES).glob("*.png"))[40]), cv2.IMREAD_GRAYSCALE)
     out = stream(Advisor(kg), [image] * 5, {"agent": "drone"})
     assert [s.reused for s in out] == [0, 1, 2, 0, 1]
@@ -68,3 +68,64 @@ def test_moved_is_the_largest_relative_change() -> None:
     assert moved({"f": 0.001}, {"f": 0.002}, ("f",)) == pytest.approx(0.001)  # a fraction near 0: absolute
     assert moved(before, before, ("a", "b", "c")) == 0.0
     assert moved(before, after, ()) == 0.0
+
+
+def session_frames(kg: KnowledgeGraph, n: int) -> None:
+    kg.update(f"""PREFIX nfex: <https://w3id.org/nfex#>
+        DELETE {{ nfex:sessionDecisionFrames nfex:value ?f }} INSERT {{ nfex:sessionDecisionFrames nfex:value {n} }}
+        WHERE {{ nfex:sessionDecisionFrames nfex:value ?f }}""", author="test")
+
+
+def test_a_session_reuses_its_decision_while_the_evidence_holds(kg: KnowledgeGraph, data_dir: Path) -> None:
+    """Consecutive KITTI frames in a session: the decision of the first frame serves nfex:sessionDecisionFrames
+    frames, each reused frame extracting α* alone (counted by the registry), then the session re-decides."""
+    assert ReuseTerms.load(kg).session == 30  # shipped: rules/pruning/thresholds.ttl
+    session_frames(kg, 4)
+    images = [cv2.imread(str(p), cv2.IMREAD_GRAYSCALE) for p in sorted((data_dir / FRAMES).glob("*.png"))[40:49]]
+    advisor = Advisor(kg)
+    registry = advisor.snapshot().registry
+    out, state, work = [], None, []
+    for image in images:
+        before = registry.work.totals()[0]
+        sel = advisor.select({"agent": "car", "light": "bright", "texture": "high", "motion": "slow"}, image, state, session=True)
+        work.append(registry.work.totals()[0] - before)
+        if sel.reused:  # before the next frame extracts what it owes from this one
+            assert sel.state is not None and set(sel.state.features) == {sel.extractor}
+        out.append(sel)
+        state = sel.state
+    assert [s.reused for s in out] == [0, 1, 2, 3, 0, 1, 2, 3, 0]
+    for s, n in zip(out, work, strict=True):
+        assert s.scoring is not None and s.scoring.extractions == n
+        if s.reused:  # the steady state: one configuration per frame, α*, and the decision of the last scored frame
+            assert n == 1 and s.scoring.outcome == "unscored" and "verification verdict" in s.scoring.reason
+    assert out[1].extractor == out[0].extractor and out[1].params == out[0].params
+    # a plain stream (not a session) keeps scoring every frame: the shipped nfex:decisionReuseFrames is 0
+    assert advisor.select({"agent": "car"}, images[1], out[0].state).reused == 0
+
+
+def test_a_session_re_decides_when_the_verdict_or_the_context_moves(kg: KnowledgeGraph, data_dir: Path) -> None:
+    images = [cv2.imread(str(p), cv2.IMREAD_GRAYSCALE) for p in sorted((data_dir / FRAMES).glob("*.png"))[40:43]]
+    advisor = Advisor(kg)
+    ctx = {"agent": "drone", "light": "bright", "texture": "high", "motion": "slow"}
+    first = advisor.select(ctx, images[0], session=True)
+    assert advisor.select(ctx, images[1], first.state, session=True).reused == 1
+    assert advisor.select(ctx, images[1], first.state, session=True, verdict_held=False).reused == 0
+    assert advisor.select({**ctx, "light": "dark"}, images[1], first.state, session=True).reused == 0
+
+
+def test_a_session_re_decides_once_a_changed_estimate_holds(kg: KnowledgeGraph, data_dir: Path) -> None:
+    """Light is estimated: a frame that reads as dark once keeps the decision (nfex:sessionConditionFrames = 2),
+    the second dark frame in a row re-decides."""
+    assert ReuseTerms.load(kg).hold == 2
+    image = cv2.imread(str(sorted((data_dir / FRAMES).glob("*.png"))[40]), cv2.IMREAD_GRAYSCALE)
+    dark = (image * 0.15).astype(np.uint8)
+    advisor = Advisor(kg)
+    ctx = {"agent": "drone", "texture": "high", "motion": "slow"}
+    first = advisor.select(ctx, image, session=True)
+    light = {e.dimension: e for e in first.context}["light"]
+    once = advisor.select(ctx, dark, first.state, session=True)
+    assert {e.dimension: e for e in once.context}["light"].value != light.value, "the darker frame reads the same"
+    assert once.reused == 1 and once.scoring is not None and "differed for 1 frame" in once.scoring.reason
+    assert advisor.select(ctx, dark, once.state, session=True).reused == 0
+    back = advisor.select(ctx, image, once.state, session=True)  # the flicker ends: the decision stands
+    assert back.reused == 2
