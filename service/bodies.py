@@ -37,8 +37,11 @@ async def utf8_text(request: Request, what: str) -> str:
 
 
 class NotJson(BadInput):
-    type = "invalid-json"
-    title = "Not acceptable JSON"
+    """JSON that Python would read but RFC 8259 does not allow, or that no handler can hold."""
+
+
+class Malformed(NotJson):
+    """Not JSON at all: the route that reads the body answers it as it always does."""
 
 
 def _constant(name: str) -> float:
@@ -67,7 +70,7 @@ def strict_json(data: str | bytes, what: str = "the body") -> Any:
     except RecursionError:
         raise NotJson(f"{what} is nested too deeply to read") from None
     except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise NotJson(f"{what} is not valid JSON: {e}") from None
+        raise Malformed(f"{what} is not valid JSON: {e}") from None
     _no_surrogates(value, what)
     return value
 
@@ -131,6 +134,8 @@ class JsonBodyGuard:
             body = b"".join(chunks)
             if body.strip():
                 strict_json(body)
+        except Malformed:
+            pass  # the route's own reading answers it (a 400, or a 415 for a body that is not of its type)
         except NfexError as e:
             await _send_problem(send, e, [(b"connection", b"close")] if e.status in (408, 413) else None)
             return

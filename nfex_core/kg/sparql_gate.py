@@ -139,8 +139,6 @@ def _judged(text: str, update: bool) -> tuple[Gated | None, BadInput | None]:
     if update and forms:
         return None, BadInput("this is a SPARQL query, not an update; send it to the query endpoint")
     if not update and any(t in UPDATES for t in ops):
-        if any(t in FORBIDDEN for t in ops):
-            return None, _refusal([FORBIDDEN[t] for t in ops if t in FORBIDDEN], update)
         return None, BadInput("this is a SPARQL Update; queries are read-only here (use `nfex kg update` or POST /sparql/update)")
     if not update and len(forms) != 1:
         return None, BadInput("not a SPARQL query: expected one SELECT, ASK, CONSTRUCT or DESCRIBE after the prologue")

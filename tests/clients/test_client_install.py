@@ -123,7 +123,7 @@ def test_the_slam_client_installs_alone_and_replays_kitti01_as_nfex_evaluate_run
     seq = open_sequence(data_dir / "kitti", "kitti", "01")
     kg = KnowledgeGraph.open(str(tmp_path / "local"), settings=settings)
     try:
-        [run] = evaluate(seq, kg, methods=["nfex"], runs=1).records
+        [run] = evaluate(seq, kg, methods=["nfex"], runs=1, session=True, control=False).records
     finally:
         kg.close()
     assert run.ate_rmse is not None

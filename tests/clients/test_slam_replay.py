@@ -60,7 +60,7 @@ def _replay_and_evaluate(template: Path, settings: Any, data_dir: Path, tmp_path
         stop_process(svc.proc)
     kg = KnowledgeGraph.open(str(tmp_path / "local"), settings=settings)
     try:
-        [run] = evaluate(seq, kg, methods=["nfex"], runs=1, frames=frames, session=True).records
+        [run] = evaluate(seq, kg, methods=["nfex"], runs=1, frames=frames, session=True, control=False).records
     finally:
         kg.close()
     return res, run

@@ -166,10 +166,10 @@ def test_bad_values_are_4xx_and_store_nothing(target: Service) -> None:
     deep = "[" * 10_000 + "]" * 10_000
     assert_problem(httpx.post(target.url + "/v1/select", files={"context": (None, deep)}), 400)
     surrogate = b'{"context": {"agent": "\\ud800"}}'
-    assert_problem(httpx.post(target.url + "/v1/sessions", content=surrogate, headers={"Content-Type": "application/json"}), 400, "invalid-json")
+    assert_problem(httpx.post(target.url + "/v1/sessions", content=surrogate, headers={"Content-Type": "application/json"}), 400, "bad-input")
     assert_problem(httpx.post(target.url + "/v1/select", files={"context": (None, '{"agent": "\\udfff"}')}), 400)
     assert_problem(httpx.post(target.url + "/v1/select", content=b'{"context": {"budget_ms": NaN}}',
-                              headers={"Content-Type": "application/json"}), 400, "invalid-json")
+                              headers={"Content-Type": "application/json"}), 400, "bad-input")
     # reporter: non-finite and surrogate values in feedback
     reporter = {**auth(REPORTER), "Content-Type": "application/json"}
     base = '{"extractor": "ORB", "context": {"agent": "car"}, "sequence": "hostile/1", "mean_inliers": 10'

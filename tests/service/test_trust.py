@@ -171,11 +171,12 @@ def update(svc: Service, text: str | bytes, token: str = EDITOR) -> httpx.Respon
 def test_load_and_service_are_refused_and_nothing_is_fetched(svc: Service, bait: tuple[str, list[str]]) -> None:
     url, seen = bait
     before = svc.version()
-    for text in (f"LOAD <{url}/x.nt>", f"LOAD SILENT <{url}/x.nt> INTO GRAPH <urn:g>", f"\\u004cOAD <{url}/x.nt>",
+    for text in (f"LOAD <{url}/x.nt>", f"LOAD SILENT <{url}/x.nt> INTO GRAPH <urn:g>",
                  f"INSERT {{ ?s ?p ?o }} WHERE {{ SERVICE <{url}/sparql> {{ ?s ?p ?o }} }}",
                  f"# harmless\nINSERT DATA {{ <urn:a> <urn:b> 1 }} ; load <{url}/y.nt>"):
         doc = assert_problem(update(svc, text), 403, "forbidden-operation")
         assert doc["operations"] and doc["operations"][0] in doc["detail"]
+    assert_problem(update(svc, f"\\u004cOAD <{url}/x.nt>"), 400, "parse-error")  # the gate's grammar has no \\u escapes
     q = f"SELECT * WHERE {{ SERVICE <{url}/sparql> {{ ?s ?p ?o }} }}"
     assert_problem(httpx.get(svc.url + "/sparql", params={"query": q}), 403, "forbidden-operation")
     assert_problem(httpx.post(svc.url + "/sparql", content=q, headers={"Content-Type": "application/sparql-query"}), 403)
