@@ -70,6 +70,7 @@ class Feedback:
     matching_ms: float | None = None
     width: int | None = None
     height: int | None = None
+    key: str | None = None  # the client's idempotency key: a retry of the same report is the same Measurement
 
 
 def feedback_run_iri(fb: Feedback, now: datetime) -> URIRef:
@@ -127,7 +128,7 @@ def measurement_graph(vocab: Vocabulary, fb: Feedback, *, run_exists: bool = Fal
         raise BadInput("feedback must report at least one of ate_rmse, rpe_rmse, tracking_lost, tracking_failed, mean_inliers, mean_matches")
 
     g, cfg = configuration_graph(vocab, fb.extractor, fb.params) if configuration is None else (rdflib.Graph(), configuration)
-    m = identity.measurement_iri()
+    m = identity.report_iri(fb.reporter, fb.key) if fb.key else identity.measurement_iri()
     seq = records.sequence_triples(g, fb.dataset, fb.sequence)  # the sweeps' node for the same sequence
     agent = identity.reporter_iri(fb.reporter)
     run = feedback_run_iri(fb, now)
@@ -212,8 +213,15 @@ class ReportWriter:
         now = datetime.now(UTC)  # one time for the batch: reports of one new run write identical run triples
         vocab = self.kg.vocabulary()
         existing = self._existing_runs({feedback_run_iri(fb, now) for fb in reports})
+        keyed = {i: identity.report_iri(fb.reporter, fb.key) for i, fb in enumerate(reports) if fb.key}
+        stored = self._existing_measurements(set(keyed.values()))
         built: list[tuple[frozenset[Any], URIRef] | BaseException] = []
-        for fb in reports:
+        replayed: dict[int, URIRef] = {}
+        for i, fb in enumerate(reports):
+            if i in keyed and (keyed[i] in stored or keyed[i] in replayed.values()):
+                replayed[i] = keyed[i]  # a retry: the report is already stored (or in this batch), once
+                built.append(_PENDING)
+                continue
             try:
                 cfg, cfg_triples = self._configuration(vocab, fb)
                 g, m = measurement_graph(vocab, fb, run_exists=feedback_run_iri(fb, now) in existing, now=now, configuration=cfg)
@@ -222,6 +230,10 @@ class ReportWriter:
                 built.append(e)
         good = [(i, b) for i, b in enumerate(built) if not isinstance(b, BaseException)]
         out: list[Written | BaseException] = [b if isinstance(b, BaseException) else _PENDING for b in built]
+        if replayed:
+            head = self.kg.version
+            for i, iri in replayed.items():
+                out[i] = Written(iri, CommitResult(version=head, changed=False))
         if not good:
             return out
         try:
@@ -282,6 +294,13 @@ class ReportWriter:
             message = f"feedback: {len(reports)} reports (" + "; ".join(f"{fb.extractor} on {fb.sequence}" for fb in reports[:3]) + \
                       ("; …)" if len(reports) > 3 else ")")
         return self.kg.commit(ChangeSet.adding(triples), author=", ".join(authors), message=message)
+
+    def _existing_measurements(self, iris: set[URIRef]) -> set[URIRef]:
+        if not iris:
+            return set()
+        values = " ".join(n3(m) for m in sorted(iris))
+        rows = self.kg.select(f"SELECT ?m WHERE {{ VALUES ?m {{ {values} }} ?m a nfex:Measurement }}").rows
+        return {URIRef(str(r["m"])) for r in rows}
 
     def _existing_runs(self, runs: set[URIRef]) -> set[URIRef]:
         values = " ".join(n3(r) for r in sorted(runs))

@@ -65,6 +65,11 @@ def measurement_iri(cell_key: str | None = None) -> URIRef:
     return NFEX[f"meas_{cell_key}"] if cell_key is not None else NFEX[f"measurement_{uuid.uuid4().hex}"]
 
 
+def report_iri(reporter: str, key: str) -> URIRef:
+    """A client report's measurement, named by its reporter and idempotency key: a retry names the same one."""
+    return NFEX[f"measurement_{uuid.uuid5(uuid.NAMESPACE_URL, f'nfex-report:{reporter}:{key}').hex}"]
+
+
 def metric_result_iri(measurement: URIRef, metric: str) -> URIRef:
     return URIRef(f"{measurement}_{slug(metric)}")
 

@@ -15,6 +15,7 @@
 | NFEX_SPARQL_CONCURRENCY    | queries running at once per process (slots held by runaway ones)   | 4         |
 | NFEX_SESSION_TTL_S         | idle time after which a session expires                            | 300 s     |
 | NFEX_MAX_SESSIONS          | sessions held at once (429 above)                                  | 256       |
+| NFEX_MAX_SESSIONS_PER_CLIENT | sessions one client (token, else address) holds at once (429 with Retry-After) | max sessions / 8 |
 | NFEX_SESSION_MEMORY_BYTES  | memory all sessions' previous frames may hold (LRU eviction)       | 512 MiB   |
 | NFEX_LOG_JSON              | one JSON object per log line                                       | true      |
 | NFEX_BACKGROUND_COMPILE    | a stale rule table answers while the next compiles in the background (false: a select after a commit waits for it) | true |
@@ -64,6 +65,7 @@ class Settings(BaseSettings):
     sparql_concurrency: int = 4
     session_ttl_s: float = 300.0
     max_sessions: int = 256
+    max_sessions_per_client: int | None = None
     session_memory_bytes: int = 512 * 1024 * 1024
     background_compile: bool = True
     compile_pause: float = 1.0

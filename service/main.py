@@ -103,11 +103,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.reports = ReportWriter(kg, max_items=max(1, settings.feedback_batch),
                                          window_s=max(0.0, settings.feedback_window_ms) / 1000)
         app.state.sessions = SessionStore(
-            ttl_s=settings.session_ttl_s, max_sessions=settings.max_sessions, memory_bytes=settings.session_memory_bytes
+            ttl_s=settings.session_ttl_s, max_sessions=settings.max_sessions, memory_bytes=settings.session_memory_bytes,
+            max_per_owner=settings.max_sessions_per_client,
         )
         app.state.queries = QueryRunner(
             kg.backend, timeout_s=settings.sparql_timeout_s, max_bytes=settings.sparql_max_bytes,
-            concurrency=settings.sparql_concurrency,
+            concurrency=settings.sparql_concurrency, version=lambda: kg.version,
         )
         app.state.ready = threading.Event()
         app.state.warmup_error = None

@@ -28,6 +28,10 @@ class TooManySessions(NfexError):
     title = "Too many sessions"
     exit_code = 2
 
+    def __init__(self, detail: str, *, retry_after_s: float, **extra: Any) -> None:
+        super().__init__(detail, retry_after_s=round(retry_after_s, 3), **extra)
+        self.headers = {"Retry-After": str(max(1, int(retry_after_s + 0.999)))}
+
 
 def state_bytes(state: Any) -> int:
     """Approximate memory a FrameState holds: its images and every numpy array in its features."""
@@ -50,6 +54,7 @@ class Session:
     client: str | None
     created: float
     last_used: float
+    owner: str = ""  # who opened it (a token's name, else the client's address): the per-owner limit
     frames: int = 0
     state: Any = None
     state_bytes: int = 0
@@ -73,11 +78,13 @@ class Session:
 class SessionStore:
     """The open sessions. ``clock`` (seconds, monotonic) is injectable, so expiry is tested without sleeping."""
 
-    def __init__(self, *, ttl_s: float, max_sessions: int, memory_bytes: int,
+    def __init__(self, *, ttl_s: float, max_sessions: int, memory_bytes: int, max_per_owner: int | None = None,
                  clock: Callable[[], float] = time.monotonic) -> None:
         self.clock = clock
         self.ttl_s = ttl_s
         self.max_sessions = max_sessions
+        # one client cannot take every slot: by default an eighth of them (at least one)
+        self.max_per_owner = max_per_owner if max_per_owner is not None else max(1, max_sessions // 8)
         self.memory_bytes = memory_bytes
         self._sessions: OrderedDict[str, Session] = OrderedDict()  # least recently used first
         self._lock = threading.Lock()
@@ -98,19 +105,30 @@ class SessionStore:
                 del self._sessions[k]
         return len(dead)
 
-    def create(self, context: dict[str, str], client: str | None = None) -> Session:
+    def create(self, context: dict[str, str], client: str | None = None, owner: str = "") -> Session:
+        """A new session; 429 with ``Retry-After`` (when the first session in the way expires, if it stays idle)
+        past ``max_sessions`` in all or ``max_per_owner`` for ``owner``."""
         self.sweep()
+        now = self.clock()
         with self._lock:
+            mine = [x for x in self._sessions.values() if x.owner == owner]
+            if len(mine) >= self.max_per_owner:
+                raise TooManySessions(
+                    f"{owner or 'this client'} has {len(mine)} sessions open (limit {self.max_per_owner} a client); close "
+                    f"one (DELETE /v1/sessions/{{id}}) or wait for an idle one to expire after {self.ttl_s:g} s",
+                    retry_after_s=self._first_expiry(mine, now), limit=self.max_per_owner)
             if len(self._sessions) >= self.max_sessions:
                 raise TooManySessions(
                     f"{len(self._sessions)} sessions are open (limit {self.max_sessions}); close one "
                     f"(DELETE /v1/sessions/{{id}}) or wait for idle ones to expire after {self.ttl_s:g} s",
-                    limit=self.max_sessions,
+                    retry_after_s=self._first_expiry(list(self._sessions.values()), now), limit=self.max_sessions,
                 )
-            now = self.clock()
-            s = Session(uuid.uuid4().hex, dict(context), client, now, now)
+            s = Session(uuid.uuid4().hex, dict(context), client, now, now, owner=owner)
             self._sessions[s.id] = s
             return s
+
+    def _first_expiry(self, sessions: list[Session], now: float) -> float:
+        return max(0.0, min(x.last_used for x in sessions) + self.ttl_s - now) if sessions else self.ttl_s
 
     def get(self, sid: str) -> Session:
         now = self.clock()

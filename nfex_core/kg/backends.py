@@ -297,6 +297,11 @@ class EmbeddedBackend(Backend):
             raise BadInput("expected a SELECT query")
         return _csv_rows(res.serialize(format=ox.QueryResultsFormat.CSV) or b"")
 
+    def checkpoint(self, path: str | Path) -> None:
+        """A consistent read-only copy of the store in the new folder ``path`` (RocksDB's checkpoint: hard links
+        to the store's files, on the same file system), which another process may open while this one writes."""
+        self._store.backup(str(path))
+
     def construct_to_file(self, query: str, path: str) -> None:
         """A CONSTRUCT's triples written as N-Triples to the file ``path`` by Oxigraph, without the interpreter lock
         (``query_to`` writes through a Python object, taking the lock for every chunk)."""

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import asyncio
 import re
-from typing import Any
+from typing import Annotated, Any
 
-from fastapi import APIRouter, Path, Query
+from fastapi import APIRouter, Header, Path, Query
 from fastapi.responses import JSONResponse
 
 from nfex_core.errors import NotFound
@@ -35,7 +35,11 @@ REPORT_ID = re.compile(r"^measurement_[0-9a-f]{32}$")
     response_model=WriteResult,
     responses=PROBLEM_RESPONSES,
 )
-async def feedback(body: FeedbackRequest, writer: ReportsDep, sessions: SessionsDep, token: ReporterDep) -> JSONResponse:
+async def feedback(body: FeedbackRequest, writer: ReportsDep, sessions: SessionsDep, token: ReporterDep,
+                   idempotency_key: Annotated[str | None, Header(
+                       alias="Idempotency-Key", max_length=200, pattern=r"^[\x21-\x7e]+$",
+                       description="The client's key for this report: a retry with the same key (after a lost answer) is "
+                                   "answered 200 with the stored report instead of storing it twice")] = None) -> JSONResponse:
     context = {k: v for k, v in body.context.items() if v is not None}
     client = body.client
     if body.session_id:
@@ -43,11 +47,12 @@ async def feedback(body: FeedbackRequest, writer: ReportsDep, sessions: Sessions
         context = {**session.context, **context}
         client = client or session.client
     fb = Feedback(**{**body.model_dump(exclude={"session_id", "context", "client"}), "context": context,
-                     "client": client, "session": body.session_id, "reporter": token.name})
+                     "client": client, "session": body.session_id, "reporter": token.name, "key": idempotency_key})
     # committed with the reports that arrived with it (nfex_core.feedback.ReportWriter), awaited on the event loop: a
     # report holds no thread while its batch forms and commits, so a fleet is not capped by the thread pool's size
     written = await asyncio.wrap_future(writer.submit(fb))
-    return WriteResult.of(written.result, iri=str(written.iri)).response(status=201)
+    replayed = idempotency_key is not None and not written.result.changed
+    return WriteResult.of(written.result, iri=str(written.iri)).response(status=200 if replayed else 201)
 
 
 @router.get("/feedback", summary="Client reports and whether each steers selections yet (and why, or why not)",

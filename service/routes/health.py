@@ -8,6 +8,7 @@ from fastapi import APIRouter, Request
 from fastapi.responses import JSONResponse, Response
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 
+from nfex_core.errors import StoreUnavailable
 from nfex_core.vision.backends import status as backend_status
 
 from ..deps import KGDep, SessionsDep
@@ -27,24 +28,41 @@ def healthz() -> dict[str, str]:
                      "content": {"application/json": {"schema": {"$ref": "#/components/schemas/Ready"}}}}},
 )
 def readyz(request: Request, kg: KGDep) -> JSONResponse:
+    """Ready while selections can be answered: a store outage leaves a replica in rotation, answering from its
+    snapshot, and says so (``writes: unavailable``); ``/readyz/writes`` is the signal for writes."""
     state = request.app.state
+    snap = state.advisor.current_snapshot()
     body: dict[str, Any] = {
         "status": "ready" if state.ready.is_set() else "starting",
-        "graph_version": kg.version,
         "store": kg.location,
         "torch_loaded": "torch" in sys.modules,
     }
+    try:
+        body["graph_version"] = kg.version
+    except StoreUnavailable as e:
+        if snap is None:
+            raise
+        body.update(graph_version=snap.version, writes="unavailable",
+                    detail=f"serving from the snapshot of graph version {snap.version}, writes unavailable: {e.detail}")
     if kg.shacl is not None:
         body["shacl_process"] = kg.shacl.status()
     if state.warmup_error is not None:
         body.update(status="failed", detail=state.warmup_error)
-    snap = state.advisor.current_snapshot()
     if snap is not None:
         body["rule_table"] = {"version": snap.version, "rules": len(snap.table.rules), "contexts": len(snap.table.decisions),
                               "compile_ms": round(snap.table.compile_ms, 1), "kept": snap.table.kept_in is not None}
         # which backends can run here: a learned extractor without its extra is pruned, and this says why
         body["backends"] = backend_status(snap.vocab.extractors, kg.settings)
     return JSONResponse(body, status_code=200 if body["status"] == "ready" else 503)
+
+
+@router.get(
+    "/readyz/writes", summary="The store accepts writes: 503 while it cannot be reached", response_model=Health,
+    responses={503: {"description": "The store cannot be reached (problem+json)"}},
+)
+def readyz_writes(kg: KGDep) -> dict[str, str]:
+    head = kg.version  # a read of the store's head; StoreUnavailable (503) when it cannot be reached
+    return {"status": f"ok: the store answers at graph version {head}"}
 
 
 @router.get("/metrics", summary="Prometheus metrics of this process", response_class=Response,

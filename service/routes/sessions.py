@@ -2,29 +2,33 @@
 frame pair's estimates (the verification stage: the frame's proposals, then ``/verdict``)."""
 from __future__ import annotations
 
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
-from fastapi import APIRouter, Request, Response
+from fastapi import APIRouter, Depends, Request, Response
 from fastapi.concurrency import run_in_threadpool
 from nfex_slam.pairs import ACCEPT, NEXT, STILL_PX, PairEvidence, Prior
 
 from nfex_core.errors import BadInput, NfexError
 from nfex_core.verification import judge
 
+from ..config import Token
 from ..deps import AdvisorDep, SessionsDep, SettingsDep
 from ..frames import read_select
 from ..schemas import PROBLEM_RESPONSES, Session, SessionCreate, SessionSelection, problems
 from ..schemas.requests import TriedCandidate, VerdictRequest
 from ..schemas.selection import Verdict
+from ..security import bearer
 
 router = APIRouter(prefix="/v1/sessions", tags=["sessions"])
 
 
 @router.post("", status_code=201, summary="Open a frame stream", response_model=Session, responses={**PROBLEM_RESPONSES, **problems(429)})
-def create_session(body: SessionCreate, sessions: SessionsDep, advisor: AdvisorDep) -> dict[str, Any]:
+def create_session(body: SessionCreate, sessions: SessionsDep, advisor: AdvisorDep, request: Request,
+                   token: Annotated[Token | None, Depends(bearer)]) -> dict[str, Any]:
     context = advisor.snapshot().vocab.check_context(body.context)
-    s = sessions.create(context, body.client)
+    owner = f"token {token.name}" if token is not None else f"address {request.client.host if request.client else '?'}"
+    s = sessions.create(context, body.client, owner)
     return s.as_dict(sessions.ttl_s, sessions.clock())
 
 

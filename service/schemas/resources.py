@@ -72,8 +72,10 @@ class ShaclProcessStatus(Out):
 
 class Ready(Out):
     status: str = Field(..., description="ready | starting | failed")
-    graph_version: int
+    graph_version: int = Field(..., description="The head the store reports, or (store unreachable) the snapshot's")
     store: str
+    writes: str = Field("available", description="available | unavailable: the store cannot be reached, selects answer "
+                        "from the last snapshot (GET /readyz/writes answers 503 meanwhile)")
     torch_loaded: bool
     detail: str | None = None
     rule_table: RuleTable | None = None

@@ -217,3 +217,99 @@ def test_a_stalled_body_is_answered_408_and_the_connection_freed(target: Service
         reply = s.recv(4096)  # the test env's NFEX_BODY_TIMEOUT_S is 3 s: the answer comes before the socket's 30 s
     assert reply.startswith(b"HTTP/1.1 408"), reply[:200]
     alive(target)
+
+
+RUNAWAY = "SELECT (COUNT(*) AS ?n) WHERE { ?a ?b ?c . ?d ?e ?f . ?g ?h ?i }"
+
+
+def _children(pid: int) -> list[tuple[int, str, str]]:
+    """(pid, state, command line) of the processes whose parent is ``pid`` (Linux /proc)."""
+    out = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+            if int(fields[1]) == pid:
+                cmd = (stat.parent / "cmdline").read_bytes().replace(b"\0", b" ").decode()
+                out.append((int(stat.parent.name), fields[0], cmd))
+        except (OSError, IndexError, ValueError):
+            continue
+    return out
+
+
+def test_runaway_queries_stop_at_their_deadline_and_free_their_slots(target: Service) -> None:
+    """Four queries that would run for minutes get 503 at the time limit; at once after, a simple query is
+    answered (their slots are free) and, on the embedded store, no worker process is left computing."""
+    answers: list[httpx.Response] = []
+
+    def runaway() -> None:
+        answers.append(httpx.get(target.url + "/sparql", params={"query": RUNAWAY}, timeout=120))
+
+    threads = [threading.Thread(target=runaway) for _ in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for r in answers:
+        assert assert_problem(r, 503, "query-limit")["limit"] == "time"
+    r = httpx.get(target.url + "/sparql", params={"query": "SELECT ?s WHERE { ?s a nfex:FeatureExtractor } LIMIT 1"},
+                  headers={"Accept": "application/sparql-results+json"})
+    assert r.status_code == 200, r.text[:300]
+    workers = [pid for pid, _, cmd in _children(target.proc.pid) if "service.query_worker" in cmd]
+    before = {pid: _cpu_ticks(pid) for pid in workers}
+    time.sleep(1.0)  # a worker still computing a runaway query would use this second
+    busy = {pid: _cpu_ticks(pid) - ticks for pid, ticks in before.items() if _cpu_ticks(pid) - ticks > 20}
+    assert not busy, f"query workers still computing (clock ticks in 1 s): {busy}"
+    alive(target)
+
+
+def _cpu_ticks(pid: int) -> int:
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return 0  # ended
+    return int(fields[11]) + int(fields[12])  # utime + stime
+
+
+def test_session_creation_is_limited_per_client_with_retry_after(target: Service) -> None:
+    # the test env: 16 sessions, 2 a client (an eighth); a token is its own client, whatever its address
+    opened = [httpx.post(target.url + "/v1/sessions", json={"context": {"agent": "car"}}) for _ in range(2)]
+    assert all(r.status_code == 201 for r in opened), opened[0].text
+    refused = httpx.post(target.url + "/v1/sessions", json={"context": {"agent": "car"}})
+    doc = assert_problem(refused, 429, "too-many-sessions")
+    assert int(refused.headers["Retry-After"]) >= 1 and doc["retry_after_s"] > 0
+    other = httpx.post(target.url + "/v1/sessions", json={"context": {"agent": "car"}}, headers=auth(REPORTER))
+    assert other.status_code == 201, other.text
+    for r in (*opened, other):
+        assert httpx.delete(target.url + f"/v1/sessions/{r.json()['id']}").status_code in (200, 204)
+    assert httpx.post(target.url + "/v1/sessions", json={"context": {"agent": "car"}}).status_code == 201
+
+
+def test_a_retried_report_is_one_measurement(target: Service) -> None:
+    report = {"extractor": "ORB", "context": {"agent": "car"}, "sequence": "hostile/retry", "mean_inliers": 42.0}
+    key = f"retry-{time.monotonic_ns()}"
+    first = httpx.post(target.url + "/v1/feedback", json=report, headers={**auth(REPORTER), "Idempotency-Key": key})
+    assert first.status_code == 201, first.text
+    again = httpx.post(target.url + "/v1/feedback", json=report, headers={**auth(REPORTER), "Idempotency-Key": key})
+    assert again.status_code == 200 and again.json()["iri"] == first.json()["iri"] and not again.json()["changed"]
+    plain = httpx.post(target.url + "/v1/feedback", json=report, headers=auth(REPORTER))
+    assert plain.status_code == 201 and plain.json()["iri"] != first.json()["iri"]
+    r = httpx.get(target.url + "/sparql", params={"query": 'SELECT (COUNT(?m) AS ?n) WHERE { ?m nfex:sequence ?s . ?s rdfs:label "hostile/retry" }'},
+                  headers={"Accept": "application/sparql-results+json"})
+    assert r.status_code == 200
+
+
+def test_a_store_outage_keeps_the_replica_in_rotation(seeded_template: Path, tmp_path: Path) -> None:
+    (tmp_path / "oxigraph").mkdir()
+    server_proc, server = start_sparql_server("oxigraph", tmp_path / "oxigraph")
+    svc = start_service(server.url, tmp_path / "service.log", server.env)
+    try:
+        stop_process(server_proc)
+        ready = httpx.get(svc.url + "/readyz")
+        assert ready.status_code == 200, ready.text
+        assert ready.json()["writes"] == "unavailable" and "snapshot" in ready.json()["detail"]
+        assert_problem(httpx.get(svc.url + "/readyz/writes"), 503, "store-unavailable")
+        assert httpx.post(svc.url + "/v1/select", json={"context": {"agent": "car"}}).status_code == 200
+    finally:
+        stop_process(svc.proc)
+        if server_proc.poll() is None:
+            stop_process(server_proc)
