@@ -104,7 +104,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                                          window_s=max(0.0, settings.feedback_window_ms) / 1000)
         app.state.sessions = SessionStore(
             ttl_s=settings.session_ttl_s, max_sessions=settings.max_sessions, memory_bytes=settings.session_memory_bytes,
-            max_per_owner=settings.max_sessions_per_client,
+            # one client cannot take every slot: by default an eighth of them (at least one)
+            max_per_owner=settings.max_sessions_per_client or max(1, settings.max_sessions // 8),
         )
         app.state.queries = QueryRunner(
             kg.backend, timeout_s=settings.sparql_timeout_s, max_bytes=settings.sparql_max_bytes,

@@ -83,8 +83,7 @@ class SessionStore:
         self.clock = clock
         self.ttl_s = ttl_s
         self.max_sessions = max_sessions
-        # one client cannot take every slot: by default an eighth of them (at least one)
-        self.max_per_owner = max_per_owner if max_per_owner is not None else max(1, max_sessions // 8)
+        self.max_per_owner = max_per_owner if max_per_owner is not None else max_sessions
         self.memory_bytes = memory_bytes
         self._sessions: OrderedDict[str, Session] = OrderedDict()  # least recently used first
         self._lock = threading.Lock()

@@ -12,7 +12,7 @@ from nfex_core.errors import StoreUnavailable
 from nfex_core.vision.backends import status as backend_status
 
 from ..deps import KGDep, SessionsDep
-from ..schemas import Health, Ready
+from ..schemas import Health, Ready, problems
 
 router = APIRouter(tags=["operations"])
 
@@ -58,7 +58,7 @@ def readyz(request: Request, kg: KGDep) -> JSONResponse:
 
 @router.get(
     "/readyz/writes", summary="The store accepts writes: 503 while it cannot be reached", response_model=Health,
-    responses={503: {"description": "The store cannot be reached (problem+json)"}},
+    responses=problems(503),
 )
 def readyz_writes(kg: KGDep) -> dict[str, str]:
     head = kg.version  # a read of the store's head; StoreUnavailable (503) when it cannot be reached
