@@ -127,8 +127,9 @@ class Worker:
     """One query worker process (service/query_worker.py)."""
 
     def __init__(self) -> None:
+        # buffered pipes: a read of n bytes returns n (or ends at EOF), where a raw pipe may return fewer
         self.proc = subprocess.Popen([sys.executable, "-P", "-m", "service.query_worker"], stdin=subprocess.PIPE,
-                                     stdout=subprocess.PIPE, bufsize=0)
+                                     stdout=subprocess.PIPE)
         self.killed = False
 
     def ask(self, request: dict[str, object]) -> tuple[dict[str, object], bytes] | None:
@@ -136,6 +137,7 @@ class Worker:
         assert self.proc.stdin is not None and self.proc.stdout is not None
         try:
             write_message(self.proc.stdin, json.dumps(request).encode())  # type: ignore[arg-type]
+            self.proc.stdin.flush()
             head = read_message(self.proc.stdout)  # type: ignore[arg-type]
             if head is None:
                 return None

@@ -82,6 +82,10 @@ def test_sessions_and_feedback(service: Service) -> None:
         assert sel["session"]["frame"] == 1
         r = nfex.feedback(extractor="ORB", session_id=s["id"], ate_rmse=0.8, sequence="client/test")
         assert r["changed"] and r["iri"].startswith("https://w3id.org/nfex#measurement_")
+        key = f"client-test-{np.random.default_rng().integers(1 << 62)}"
+        first = nfex.feedback(idempotency_key=key, extractor="ORB", session_id=s["id"], ate_rmse=0.8, sequence="client/test")
+        retry = nfex.feedback(idempotency_key=key, extractor="ORB", session_id=s["id"], ate_rmse=0.8, sequence="client/test")
+        assert first["changed"] and not retry["changed"] and retry["iri"] == first["iri"]
         nfex.close_session(s["id"])
 
 

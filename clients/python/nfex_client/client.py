@@ -87,6 +87,11 @@ class _Requests:
     def update(update: str, if_match: int | None) -> Call:
         return Call("POST", "/sparql/update", {"content": update.encode(), "headers": {"Content-Type": "application/sparql-update", **_if_match(if_match)}})
 
+    @staticmethod
+    def feedback(fields: dict[str, Any], idempotency_key: str | None) -> Call:
+        headers = {"Idempotency-Key": idempotency_key} if idempotency_key else {}
+        return Call("POST", "/v1/feedback", {"json": fields, "headers": headers})
+
 
 def _result(call: Call, response: httpx.Response) -> Any:
     raise_for_problem(response)
@@ -143,9 +148,10 @@ class NfexClient:
     def close_session(self, session_id: str) -> None:
         self._do(Call("DELETE", f"/v1/sessions/{session_id}", {}, "none"))
 
-    def feedback(self, **fields: Any) -> WriteResult:
-        """Report a measured result (extractor, params, context, window, ate_rmse, tracking_lost…)."""
-        return self._json("POST", "/v1/feedback", json=fields)
+    def feedback(self, *, idempotency_key: str | None = None, **fields: Any) -> WriteResult:
+        """Report a measured result (extractor, params, context, window, ate_rmse, tracking_lost…). Send the same
+        ``idempotency_key`` when retrying a report whose answer was lost: the service stores it once."""
+        return self._do(_Requests.feedback(fields, idempotency_key))
 
     # -- reading
     def health(self) -> Health:
@@ -237,8 +243,8 @@ class AsyncNfexClient:
     async def close_session(self, session_id: str) -> None:
         await self._do(Call("DELETE", f"/v1/sessions/{session_id}", {}, "none"))
 
-    async def feedback(self, **fields: Any) -> WriteResult:
-        return await self._do(Call("POST", "/v1/feedback", {"json": fields}))
+    async def feedback(self, *, idempotency_key: str | None = None, **fields: Any) -> WriteResult:
+        return await self._do(_Requests.feedback(fields, idempotency_key))
 
     async def ready(self) -> Ready:
         return await self._do(Call("GET", "/readyz", {}))
