@@ -273,6 +273,7 @@ class Ready(TypedDict):
     status: str
     graph_version: int
     store: str
+    writes: NotRequired[str]
     torch_loaded: bool
     detail: NotRequired[str | None]
     rule_table: NotRequired[RuleTable | None]
