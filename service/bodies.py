@@ -120,7 +120,7 @@ class JsonBodyGuard:
         if not is_json(headers.get(b"content-type", b"").decode("latin-1")):
             await self.app(scope, receive, send)
             return
-        from .security import _send_problem
+        from .security import send_problem
 
         chunks: list[bytes] = []
         try:
@@ -137,7 +137,7 @@ class JsonBodyGuard:
         except Malformed:
             pass  # the route's own reading answers it (a 400, or a 415 for a body that is not of its type)
         except NfexError as e:
-            await _send_problem(send, e, [(b"connection", b"close")] if e.status in (408, 413) else None)
+            await send_problem(send, e, [(b"connection", b"close")] if e.status in (408, 413) else None)
             return
         replayed = False
 

@@ -125,7 +125,7 @@ def _problem_body(error: NfexError) -> bytes:
     return json.dumps(printable(error.problem())).encode()
 
 
-async def _send_problem(send: Send, error: NfexError, headers: list[tuple[bytes, bytes]] | None = None) -> None:
+async def send_problem(send: Send, error: NfexError, headers: list[tuple[bytes, bytes]] | None = None) -> None:
     body = _problem_body(error)
     await send({"type": "http.response.start", "status": error.status,
                 "headers": [(b"content-type", PROBLEM_JSON.encode()), (b"content-length", str(len(body)).encode()),
@@ -145,7 +145,7 @@ class TokenInUrlGuard:
             pairs = parse_qsl(scope["query_string"].decode("latin-1"), keep_blank_values=True)
             book = self.tokens()
             if any(k.lower() == "access_token" for k, _ in pairs) or (book is not None and book.any_secret_in(v for _, v in pairs)):
-                await _send_problem(send, TokenInUrl(
+                await send_problem(send, TokenInUrl(
                     "tokens go in the 'Authorization: Bearer <token>' header, never in the URL (it ends up in logs and "
                     "browser history); treat this token as exposed and have it rotated"))
                 return
@@ -200,7 +200,7 @@ class ReadOnlyCORS:
                 return
         if method == "OPTIONS" and "origin" in headers and "access-control-request-method" in headers \
                 and not is_read(headers["access-control-request-method"].upper(), path):
-            await _send_problem(send, Forbidden(
+            await send_problem(send, Forbidden(
                 f"cross-origin {headers['access-control-request-method'].upper()} {path} is not allowed: CORS covers reads "
                 "only (GET, HEAD, POST /v1/select, POST /sparql); send writes from a server or the same origin"))
             return
