@@ -35,6 +35,7 @@ from ..fitness import f_metrics
 from ..kg.vocab import ExtractorSpec, Value, Vocabulary
 from ..neural.serve import BoundedChoice, NeuralStep
 from ..rules.types import Decision
+from ..vision.work import Work
 from .bounds import contenders, next_extraction, score_bounds, settled_reason
 from .params import Candidate, Parameters
 from .reuse import Decided
@@ -260,18 +261,8 @@ class Scorer:
         return Scored(listed, state(params.candidates), "metrics", how)
 
 
-class _Tally:
+class _Tally(Work):
     """The extractions one request ran and their pixels (FrameState's owed extractions included)."""
-
-    def __init__(self) -> None:
-        self._lock = threading.Lock()
-        self.extractions = 0
-        self.pixels = 0
-
-    def add(self, pixels: int) -> None:
-        with self._lock:
-            self.extractions += 1
-            self.pixels += int(pixels)
 
     def scoring(self, outcome: str, reason: str) -> Scoring:
         return Scoring(outcome, reason, self.extractions, self.pixels)

@@ -23,7 +23,6 @@ backend loads its model once per process, on its first extraction.
 """
 from __future__ import annotations
 
-import threading
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -35,26 +34,7 @@ from ..config import Settings
 from ..errors import BadInput, UnknownName
 from ..kg.vocab import ExtractorSpec, Value, Vocabulary
 from .backends import backend
-
-
-class Work:
-    """The extractions a registry has run and the pixels they processed: work counted, not timed (the tests
-    assert how much a selection extracts with it)."""
-
-    def __init__(self) -> None:
-        self._lock = threading.Lock()
-        self.extractions = 0
-        self.pixels = 0
-
-    def add(self, pixels: int) -> None:
-        with self._lock:
-            self.extractions += 1
-            self.pixels += pixels
-
-    def totals(self) -> tuple[int, int]:
-        """(extractions, pixels) so far."""
-        with self._lock:
-            return self.extractions, self.pixels
+from .work import Work
 
 
 class ExtractorRegistry:
