@@ -46,7 +46,8 @@ from ..datasets.base import Frame, Sequence
 from ..features import Features
 from ..motion import NO_CHECKS, StepChecks, motion_direction, pair_errors, relative_truth
 from ..pairs import ACCEPT, NEXT, STILL_PX, PairEvidence, Prior, Verdict
-from .geometry import match, relative_pose, triangulate, undistort
+from .tracking import MapTracker
+from .twoview import ScaleChain, Try, try_pair
 
 
 class Extractors(Protocol):
@@ -76,12 +77,20 @@ class VOParams:
     min_inliers: int = 10
     ransac_threshold_px: float = 1.0
     still_px: float = STILL_PX  # median inlier parallax below which a step has no translation
-    scale: str = "triangulated"  # "triangulated" | "unit" | "gt"
+    scale: str = "map"  # "map" (the local map) | two-view: "triangulated" | "unit" | "gt"
     min_scale_points: int = 8
     max_scale_change: float = 2.0  # per step, against a bad triangulation
     max_lost_fraction: float = 0.3
     seed: int | None = None  # None: deterministic; else the correspondences are shuffled per frame
     # before RANSAC (OpenCV seeds its RANSAC itself, so this is what makes runs differ)
+    # the local map (scale="map"; localmap, bundle): PnP needs min_map_points map points among the matches
+    # (ORB-SLAM tracks a reference keyframe on ≥ 15 matches); new points need rays min_angle_deg apart (ORB-SLAM:
+    # cos < 0.9998, 1.15°); the window's oldest window_fixed keyframes hold the gauge
+    min_map_points: int = 15
+    min_angle_deg: float = 1.0
+    window: int = 7
+    window_fixed: int = 2
+    ba_iterations: int = 10
 
 
 @dataclass(frozen=True)
@@ -103,6 +112,8 @@ class FrameRecord:
     parallax_px: float = 0.0
     tries: int = 1  # candidates tried on this pair (verification; extraction and matching ms count them all)
     verdict: dict[str, Any] | None = field(default=None, compare=False)  # verification.Verdict.as_dict()
+    located: str = ""  # how the local map placed the frame: "pnp" | "essential" ("" without a map, or lost)
+    map_points: int = 0  # PnP inliers among the map's points
 
     @property
     def rejected(self) -> bool:
@@ -184,7 +195,8 @@ def run_vo(
     stamps: list[float] = []
     velocity = np.eye(4)  # last good T_k-1←k (camera k in camera k-1)
     moving: tuple[np.ndarray, np.ndarray] | None = None  # the last accepted step that translated (R, t)
-    scale = _Scale(p, K)
+    scale = ScaleChain(p, K)
+    tracker = MapTracker(sequence, p, registry) if p.scale == "map" else None
     prev: tuple[Frame, Choice, dict[str, Features]] | None = None  # the last frame, its taken choice, every tried one's features
     shape = (0, 0)
     for i in range(start, stop):
@@ -192,24 +204,25 @@ def run_vo(
         shape = frame.image.shape[:2]
         proposed = chooser(frame, records)
         choices, judge = (proposed.choices, proposed.judge) if isinstance(proposed, Proposals) else ((_as_choice(proposed),), None)
-        tries: list[_Try] = []
+        tries: list[Try] = []
         evidence: list[PairEvidence] = []
         verdict: Verdict | None = None
         estimate: tuple[np.ndarray, np.ndarray] | None = None
         errors: tuple[float, float] | None = None
+        located, map_points, extra_ms, extra_match_ms = "", 0, 0.0, 0.0
         if prev is None:
-            first = _Try(choices[0], registry.extract(choices[0].extractor, frame.image, choices[0].params))
+            first = Try(choices[0], registry.extract(choices[0].extractor, frame.image, choices[0].params))
             tries.append(first)
             if measure is not None:
                 first.metrics = dict(measure(first.feats, frame.image, None))
-            taken: _Try | None = first
+            taken: Try | None = first
             reason = ""
             pose = np.eye(4)
         else:
             prev_frame, prev_choice, prev_cache = prev
             prior = Prior(moving[0], motion_direction(*moving)) if moving is not None else None
             for n, choice in enumerate(choices):
-                t = _try_pair(choice, frame, prev_frame, prev_cache, sequence, K, p, registry, measure)
+                t = try_pair(choice, frame, prev_frame, prev_cache, sequence, K, p, registry, measure)
                 if t.step is not None:
                     moved = t.step.parallax_px >= p.still_px
                     t.reason = checks.verdict(t.step.R, t.step.t, frame.timestamp - prev_frame.timestamp, moving, moved)
@@ -240,140 +253,36 @@ def run_vo(
                 step = taken.step
                 if step.parallax_px >= p.still_px:
                     moving = (step.R, step.t)
-                length = scale.step(step, taken.choice == prev_choice, prev_frame, frame)
-                forward = np.eye(4)  # camera k-1 → camera k
-                forward[:3, :3] = step.R
-                forward[:3, 3] = length * step.t
-                velocity = np.asarray(np.linalg.inv(forward), dtype=float)
+                if tracker is not None:
+                    pose, extra_ms, extra_match_ms, located, map_points = tracker.place(frame, taken, prev_frame, prev_cache, poses[-1])
+                    velocity = np.linalg.inv(poses[-1]) @ pose
+                else:
+                    length = scale.step(step, taken.choice == prev_choice, prev_frame, frame)
+                    forward = np.eye(4)  # camera k-1 → camera k
+                    forward[:3, :3] = step.R
+                    forward[:3, 3] = length * step.t
+                    velocity = np.asarray(np.linalg.inv(forward), dtype=float)
+                    pose = poses[-1] @ velocity
             else:
                 scale.reset()
-            pose = poses[-1] @ velocity
+                pose = poses[-1] @ velocity
+                if tracker is not None:
+                    tracker.anchor(i, pose)
         shown_try = taken or tries[0]
         poses.append(pose)
         stamps.append(frame.timestamp)
         records.append(
             FrameRecord(
                 i, frame.timestamp, shown_try.choice.extractor, registry.resolve(shown_try.choice.extractor, shown_try.choice.params),
-                len(shown_try.feats), shown_try.matches, shown_try.inliers, sum(t.extraction_ms for t in tries),
-                sum(t.matching_ms for t in tries), taken is None, reason, shown_try.metrics, estimate, errors,
+                len(shown_try.feats), shown_try.matches, shown_try.inliers, sum(t.extraction_ms for t in tries) + extra_ms,
+                sum(t.matching_ms for t in tries) + extra_match_ms, taken is None, reason, shown_try.metrics, estimate, errors,
                 shown_try.step.parallax_px if shown_try.step is not None else 0.0, len(tries),
-                verdict.as_dict() if verdict is not None else None,
+                verdict.as_dict() if verdict is not None else None, located, map_points,
             )
         )
         accepted = taken or tries[0]
         prev = (frame, accepted.choice, {t.choice.key: t.feats for t in tries})
-    return VOResult(np.array(poses).reshape(-1, 4, 4), np.array(stamps), records, p.max_lost_fraction, shape[1], shape[0])
-
-
-@dataclass
-class _Step:
-    R: np.ndarray
-    t: np.ndarray  # unit
-    query: np.ndarray  # inlier keypoint indices in frame k-1
-    train: np.ndarray  # inlier keypoint indices in frame k
-    p1: np.ndarray
-    p2: np.ndarray
-    parallax_px: float
-
-
-@dataclass
-class _Try:
-    """One candidate tried on a frame pair."""
-
-    choice: Choice
-    feats: Features
-    step: _Step | None = None
-    matches: int = 0
-    inliers: int = 0
-    extraction_ms: float = 0.0
-    matching_ms: float = 0.0
-    reason: str = ""  # why the geometry lost it, or why a front-end check rejected it
-    metrics: dict[str, float] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        if not self.extraction_ms:
-            self.extraction_ms = self.feats.elapsed_ms
-
-    def evidence(self) -> PairEvidence:
-        s = self.step
-        return PairEvidence.of(
-            self.choice.extractor, self.choice.params, s.R if s is not None else None, s.t if s is not None else None,
-            keypoints=len(self.feats), matches=self.matches, inliers=self.inliers,
-            parallax_px=s.parallax_px if s is not None else 0.0, extraction_ms=self.extraction_ms, rejected=self.reason,
-        )
-
-
-def _try_pair(
-    choice: Choice, frame: Frame, prev_frame: Frame, prev_cache: dict[str, Features], seq: Sequence, K: np.ndarray,
-    p: VOParams, registry: Extractors, measure: Measure | None,
-) -> _Try:
-    """Extract frame k with ``choice`` (and frame k−1, unless it was extracted with it), match, estimate."""
-    feats = registry.extract(choice.extractor, frame.image, choice.params)
-    ms = feats.elapsed_ms
-    prev_feats = prev_cache.get(choice.key)
-    if prev_feats is None:
-        prev_feats = prev_cache[choice.key] = registry.extract(choice.extractor, prev_frame.image, choice.params)
-        ms += prev_feats.elapsed_ms
-    t = _Try(choice, feats, extraction_ms=ms)
-    if measure is not None:
-        t.metrics = dict(measure(feats, frame.image, (prev_feats, prev_frame.image)))
-    t.step, t.matches, t.inliers, t.matching_ms, t.reason = _step(prev_feats, feats, seq, K, p)
-    return t
-
-
-def _step(a: Features, b: Features, seq: Sequence, K: np.ndarray, p: VOParams) -> tuple[_Step | None, int, int, float, str]:
-    """The relative motion of one frame pair (or None and why), with match/inlier counts and matching time."""
-    if len(a) < p.min_keypoints or len(b) < p.min_keypoints:
-        return None, 0, 0, 0.0, f"too few keypoints ({len(a)}, {len(b)})"
-    m = match(a, b, p.ratio)
-    n = len(m.query)
-    if n < p.min_matches:
-        return None, n, 0, m.elapsed_ms, f"too few matches ({n} < {p.min_matches})"
-    if p.seed is not None:
-        order = np.random.default_rng((p.seed, len(a), len(b), n)).permutation(n)
-        m = type(m)(m.query[order], m.train[order], m.elapsed_ms)
-    p1 = undistort(a.xy[m.query], seq.intrinsics)
-    p2 = undistort(b.xy[m.train], seq.intrinsics)
-    rel = relative_pose(p1, p2, K, threshold_px=p.ransac_threshold_px)
-    if rel is None:
-        return None, n, 0, m.elapsed_ms, "no essential matrix"
-    k = int(rel.inliers.sum())
-    if k < p.min_inliers:
-        return None, n, k, m.elapsed_ms, f"too few inliers ({k} < {p.min_inliers})"
-    inl = rel.inliers
-    step = _Step(rel.R, rel.t, m.query[inl], m.train[inl], p1[inl], p2[inl], rel.parallax_px)
-    return step, n, k, m.elapsed_ms, ""
-
-
-class _Scale:
-    """The length of each step in the run's one scale (module docstring, "Scale")."""
-
-    def __init__(self, p: VOParams, K: np.ndarray) -> None:
-        self.p = p
-        self.K = K
-        self.length = 1.0
-        self.points: dict[int, float] = {}  # keypoint index in the last frame -> distance from that camera
-
-    def reset(self) -> None:
-        self.points = {}
-
-    def step(self, s: _Step, same_features: bool, fa: Frame, fb: Frame) -> float:
-        p = self.p
-        if s.parallax_px < p.still_px:
-            self.points = {}
-            return 0.0
-        if p.scale == "gt" and fa.pose is not None and fb.pose is not None:
-            return float(np.linalg.norm(fb.pose[:3, 3] - fa.pose[:3, 3]))
-        if p.scale == "unit":
-            return 1.0
-        X2, ok = triangulate(s.p1, s.p2, self.K, s.R, s.t)
-        X1 = (X2 - s.t.reshape(1, 3)) @ s.R  # the same points in camera k-1
-        d1 = np.linalg.norm(X1, axis=1)
-        if same_features and self.points:
-            ratios = [self.points[int(q)] / d for q, d, o in zip(s.query, d1, ok, strict=True) if o and int(q) in self.points and d > 0]
-            if len(ratios) >= p.min_scale_points:
-                r = float(np.median(ratios))
-                self.length = float(np.clip(r, self.length / p.max_scale_change, self.length * p.max_scale_change))
-        d2 = np.linalg.norm(X2, axis=1) * self.length
-        self.points = {int(t): float(d) for t, d, o in zip(s.train, d2, ok, strict=True) if o}
-        return self.length
+    out = np.array(poses).reshape(-1, 4, 4)
+    if tracker is not None:
+        out = tracker.trajectory([r.index for r in records], out)
+    return VOResult(out, np.array(stamps), records, p.max_lost_fraction, shape[1], shape[0])

@@ -1,0 +1,205 @@
+"""The monocular VO's local map: keyframes, points with their descriptors' keyframe, tracks waiting for parallax.
+
+A keyframe is an accepted frame that moved (median inlier parallax ≥ ``still_px``), with its camera-to-world pose,
+its features under the map's configuration (the descriptors its points are matched through) and which of its
+keypoints see which map point (``points``) or extend which pending track (``tracks``).
+
+- **Tracking** (``locate``): the ratio-test matches from the last keyframe to frame k that land on a map point give
+  3-D–2-D correspondences; with at least ``min_map_points`` of them, PnP in RANSAC (``cv2.solvePnPRansac``,
+  EPnP hypotheses, reprojection threshold √5.991 px, then Levenberg–Marquardt on the inliers) gives T_wc,k in the
+  map's scale.
+- **Association** (``associate``): a match whose keypoint in the reference keyframe sees a point adds an observation
+  where it reprojects within √5.991 px; any other match starts or extends a track. A track is triangulated
+  (DLT, ``cv2.triangulatePoints``, from its first and last views, whose poses are known) once the angle between
+  those two rays reaches ``min_angle_deg`` and the point lies in front of, and reprojects within √5.991 px in,
+  every view of the track — ORB-SLAM's tests for a new point (Mur-Artal et al. 2015, §VI-C).
+- **Refinement**: after each new keyframe, ``bundle.adjust`` over the last ``window`` keyframes with the oldest
+  ``fixed`` held; observations that reproject beyond √5.991 px afterwards are dropped, and points left with fewer
+  than two.
+- **A change of configuration** (``switch``): the last two keyframes are re-extracted with the new configuration and
+  their matches triangulated from their known poses, so the new points are in the map's scale.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from ..features import Features
+from .bundle import HUBER_PX, adjust
+
+Obs = tuple[int, int, np.ndarray]  # (keyframe id, keypoint index, undistorted pixel)
+
+
+@dataclass
+class Keyframe:
+    id: int  # the frame's index in the sequence
+    T_wc: np.ndarray  # 4×4 camera-to-world
+    key: str  # the configuration its features were extracted with (Choice.key)
+    feats: Features
+    xy: np.ndarray  # (N, 2) undistorted keypoints
+    image: np.ndarray | None = None  # kept for the last two keyframes (a switch re-extracts them)
+    points: dict[int, int] = field(default_factory=dict)  # keypoint index → point id
+    tracks: dict[int, int] = field(default_factory=dict)  # keypoint index → track id
+
+
+@dataclass
+class MapPoint:
+    X: np.ndarray  # (3,) world
+    obs: dict[int, tuple[int, np.ndarray]] = field(default_factory=dict)  # keyframe id → (keypoint, pixel)
+
+
+class LocalMap:
+    def __init__(self, K: np.ndarray, *, window: int = 7, fixed: int = 2, min_angle_deg: float = 1.0,
+                 ba_iterations: int = 10) -> None:
+        self.K = K
+        self.window, self.fixed, self.ba_iterations = window, fixed, ba_iterations
+        self.min_cos = float(np.cos(np.radians(min_angle_deg)))
+        self.keyframes: list[Keyframe] = []
+        self.poses: dict[int, np.ndarray] = {}  # every keyframe's pose, refined in place
+        self.points: dict[int, MapPoint] = {}
+        self.tracks: dict[int, list[Obs]] = {}
+        self._next = 0
+
+    @property
+    def last(self) -> Keyframe | None:
+        return self.keyframes[-1] if self.keyframes else None
+
+    def add(self, kf: Keyframe) -> None:
+        self.keyframes.append(kf)
+        self.poses[kf.id] = kf.T_wc
+        for old in self.keyframes[:-2]:
+            old.image = None
+
+    def locate(self, ref: Keyframe, query: np.ndarray, train: np.ndarray, xy: np.ndarray, *, min_points: int,
+               min_inliers: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """T_wc of the frame whose undistorted keypoints are ``xy``, from the matches ``ref`` → it (PnP + RANSAC), with
+        the inlier mask over those matches; None with too few map points or inliers."""
+        sees = np.array([ref.points.get(int(q), -1) in self.points for q in query], bool)
+        if int(sees.sum()) < min_points:
+            return None
+        X = np.array([self.points[ref.points[int(q)]].X for q in query[sees]], np.float64)
+        ok, rvec, tvec, inl = cv2.solvePnPRansac(X, xy[train[sees]].astype(np.float64), self.K, None,
+                                                 reprojectionError=HUBER_PX, confidence=0.999, iterationsCount=200,
+                                                 flags=cv2.SOLVEPNP_EPNP)
+        if not ok or inl is None or len(inl) < min_inliers:
+            return None
+        idx = inl.ravel()
+        rvec, tvec = cv2.solvePnPRefineLM(X[idx], xy[train[sees]][idx].astype(np.float64), self.K, None, rvec, tvec)
+        T_cw = np.eye(4)
+        T_cw[:3, :3] = cv2.Rodrigues(rvec)[0]
+        T_cw[:3, 3] = tvec.ravel()
+        mask = np.zeros(len(query), bool)
+        mask[np.flatnonzero(sees)[idx]] = True
+        return np.linalg.inv(T_cw), mask
+
+    def associate(self, ref: Keyframe, cur: Keyframe, query: np.ndarray, train: np.ndarray) -> int:
+        """Carry ``ref``'s points and tracks to ``cur`` through the matches; triangulate tracks with parallax enough.
+        Returns the number of new points."""
+        live: dict[int, list[Obs]] = {}
+        for q, t in zip(query.tolist(), train.tolist(), strict=True):
+            if t in cur.points or t in cur.tracks:
+                continue
+            pid = ref.points.get(q)
+            if pid is not None and pid in self.points:
+                pt = self.points[pid]
+                if cur.id not in pt.obs and self._reprojection(cur.T_wc, pt.X, cur.xy[t]) <= HUBER_PX:
+                    pt.obs[cur.id] = (t, cur.xy[t])
+                    cur.points[t] = pid
+                continue
+            tid = ref.tracks.get(q)
+            obs = self.tracks.get(tid) if tid is not None else None
+            if obs is None or tid is None or tid in live:
+                obs, tid = [(ref.id, q, ref.xy[q])], self._new_id()
+            live[tid] = [*obs, (cur.id, t, cur.xy[t])]
+            cur.tracks[t] = tid
+        self.tracks = live
+        return self._triangulate(cur)
+
+    def switch(self, a: Keyframe, b: Keyframe, key: str, fa: Features, fb: Features, xa: np.ndarray, xb: np.ndarray,
+               query: np.ndarray, train: np.ndarray) -> int:
+        """Keyframes ``a`` then ``b`` (the last two) re-extracted with configuration ``key`` and matched; their matches
+        triangulated from the poses they have. Returns the number of new points."""
+        for kf, f, x in ((a, fa, xa), (b, fb, xb)):
+            kf.key, kf.feats, kf.xy, kf.points, kf.tracks = key, f, x, {}, {}
+        self.tracks = {}
+        return self.associate(a, b, query, train)
+
+    def refine(self) -> None:
+        """Bundle-adjust the window (module docstring); drop observations it leaves beyond √5.991 px."""
+        win = self.keyframes[-self.window:]
+        if len(win) <= self.fixed:
+            return
+        ids = {kf.id for kf in win}
+        seen = {pid: pt for pid, pt in self.points.items() if sum(i in ids for i in pt.obs) >= 2}
+        if not seen:
+            return
+        obs = [(i, pid, xy) for pid, pt in seen.items() for i, (_, xy) in pt.obs.items() if i in ids]
+        poses, xs = adjust({kf.id: kf.T_wc for kf in win}, [kf.id for kf in win[: self.fixed]],
+                           {pid: pt.X for pid, pt in seen.items()}, obs, self.K, iterations=self.ba_iterations,
+                           hold_range=(win[0].id, win[1].id) if self.fixed == 1 else None)
+        for kf in win:
+            kf.T_wc = self.poses[kf.id] = poses[kf.id]
+        by_id = {kf.id: kf for kf in win}
+        for pid, pt in seen.items():
+            pt.X = xs[pid]
+            for i in [i for i in pt.obs if i in ids]:
+                if self._reprojection(by_id[i].T_wc, pt.X, pt.obs[i][1]) > HUBER_PX:
+                    self._drop(pid, i, by_id[i])
+            if len(pt.obs) < 2:
+                for i in list(pt.obs):
+                    if i in by_id:
+                        self._drop(pid, i, by_id[i])
+                del self.points[pid]
+
+    def forget(self, keep: int) -> None:
+        """Drop points no keyframe among the last ``keep`` sees (they can no longer be matched)."""
+        ids = {kf.id for kf in self.keyframes[-keep:]}
+        self.points = {pid: pt for pid, pt in self.points.items() if any(i in ids for i in pt.obs)}
+        self.keyframes = self.keyframes[-keep:]
+
+    def _drop(self, pid: int, i: int, kf: Keyframe) -> None:
+        kp, _ = self.points[pid].obs.pop(i)
+        if kf.points.get(kp) == pid:
+            del kf.points[kp]
+
+    def _new_id(self) -> int:
+        self._next += 1
+        return self._next
+
+    def _reprojection(self, T_wc: np.ndarray, X: np.ndarray, xy: np.ndarray) -> float:
+        T_cw = np.linalg.inv(T_wc)
+        c = T_cw[:3, :3] @ X + T_cw[:3, 3]
+        if c[2] <= 0:
+            return float("inf")
+        u = self.K @ (c / c[2])
+        return float(np.hypot(u[0] - xy[0], u[1] - xy[1]))
+
+    def _triangulate(self, cur: Keyframe) -> int:
+        made = 0
+        for tid, obs in list(self.tracks.items()):
+            (i0, _, x0), (i1, _, x1) = obs[0], obs[-1]
+            T0, T1 = self.poses[i0], self.poses[i1]
+            r0 = T0[:3, :3] @ np.linalg.solve(self.K, [x0[0], x0[1], 1.0])
+            r1 = T1[:3, :3] @ np.linalg.solve(self.K, [x1[0], x1[1], 1.0])
+            if float(r0 @ r1) / (np.linalg.norm(r0) * np.linalg.norm(r1)) > self.min_cos:
+                continue
+            P0 = self.K @ np.linalg.inv(T0)[:3]
+            P1 = self.K @ np.linalg.inv(T1)[:3]
+            h = cv2.triangulatePoints(P0, P1, np.asarray(x0, np.float64).reshape(2, 1), np.asarray(x1, np.float64).reshape(2, 1))
+            if abs(float(h[3, 0])) < 1e-12:
+                continue
+            X = h[:3, 0] / h[3, 0]
+            if not np.isfinite(X).all() or any(self._reprojection(self.poses[i], X, x) > HUBER_PX for i, _, x in obs):
+                continue
+            pid = self._new_id()
+            self.points[pid] = MapPoint(X, {i: (kp, x) for i, kp, x in obs})
+            for kf in self.keyframes[-len(obs) - 1:]:
+                for i, kp, _ in obs:
+                    if kf.id == i:
+                        kf.points[kp] = pid
+                        kf.tracks.pop(kp, None)
+            del self.tracks[tid]
+            made += 1
+        return made

@@ -1,0 +1,129 @@
+"""How the VO with a local map (``VOParams.scale = "map"``) places an accepted frame (``localmap`` has the map).
+
+For an accepted pair (frame k−1, frame k) whose two-view estimate passed the checks and the judge:
+
+1. With no map yet, frame k−1 becomes its first keyframe (its pose is known: the identity at the start).
+2. Where the pair's configuration is not the map's, the last two keyframes are re-extracted with it and their
+   matches triangulated at their known poses (``LocalMap.switch``); the extractions count in frame k's cost.
+3. Frame k is matched against the last keyframe (the pair's own matches where frame k−1 is that keyframe) and
+   located by PnP + RANSAC on the map points among the matches; with too few, the essential matrix's R and unit t
+   scaled by the last step's length place it (t = 0 where the pair did not move).
+4. A frame that moved becomes a keyframe: its matches extend the map's points and tracks, tracks with parallax
+   enough are triangulated, and the window is bundle-adjusted (``bundle.adjust``).
+
+Every frame is anchored to the last keyframe at the time it was placed (T_kf⁻¹ · T_k); ``trajectory`` gives each
+frame its keyframe's refined pose times that anchor, so frames between keyframes (still, or coasted on the motion
+prior) follow their keyframe's refinement.
+"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..datasets.base import Frame, Sequence
+from ..features import Features
+from .geometry import match, undistort
+from .localmap import Keyframe, LocalMap
+
+if TYPE_CHECKING:
+    from .pipeline import Choice, Extractors, VOParams
+    from .twoview import Try
+
+
+class MapTracker:
+    def __init__(self, seq: Sequence, p: VOParams, registry: Extractors) -> None:
+        self.seq, self.p, self.registry = seq, p, registry
+        self.map = LocalMap(seq.intrinsics.K, window=p.window, fixed=p.window_fixed, min_angle_deg=p.min_angle_deg,
+                            ba_iterations=p.ba_iterations)
+        self.length = 1.0  # the last step's length in the map's scale: the essential matrix's fallback
+        self.anchors: dict[int, tuple[int, np.ndarray]] = {}  # frame index → (keyframe id, T_kf⁻¹ · T_k)
+
+    def place(self, frame: Frame, taken: Try, prev: Frame, prev_cache: dict[str, Features],
+              prev_pose: np.ndarray) -> tuple[np.ndarray, float, float, str, int]:
+        """Frame k's camera-to-world pose, the extraction and matching ms it added, how it was located
+        ("pnp" | "essential") and its PnP inliers."""
+        step = taken.step
+        assert step is not None
+        p, key = self.p, taken.choice.key
+        extra_ms = match_ms = 0.0
+        if self.map.last is None:
+            feats = prev_cache[key]
+            self.map.add(Keyframe(prev.index, prev_pose, key, feats, self._xy(feats), prev.image))
+            self.anchors[prev.index] = (prev.index, np.eye(4))
+        elif self.map.last.key != key:
+            extra_ms, match_ms = self._switch(taken.choice, prev, prev_cache)
+        ref = self.map.last
+        assert ref is not None
+        if ref.id == prev.index:
+            q, t = step.matches
+        else:
+            q, t, ms = self._match(ref.feats, taken.feats)
+            match_ms += ms
+        xy = self._xy(taken.feats)
+        located = self.map.locate(ref, q, t, xy, min_points=p.min_map_points, min_inliers=p.min_inliers)
+        moved = step.parallax_px >= p.still_px
+        if located is not None:
+            T, inliers, how = located[0], int(located[1].sum()), "pnp"
+        else:
+            forward = np.eye(4)  # camera k-1 → camera k
+            forward[:3, :3] = step.R
+            forward[:3, 3] = (self.length if moved else 0.0) * step.t
+            T, inliers, how = prev_pose @ np.linalg.inv(forward), 0, "essential"
+        if moved:
+            kf = Keyframe(frame.index, T, key, taken.feats, xy, frame.image)
+            self.map.add(kf)
+            self.map.associate(ref, kf, q, t)
+            self.map.refine()
+            self.map.forget(p.window + 2)
+            T = kf.T_wc
+            self.length = max(float(np.linalg.norm(T[:3, 3] - prev_pose[:3, 3])), 1e-9)
+        self.anchor(frame.index, T)
+        return T, extra_ms, match_ms, how, inliers
+
+    def anchor(self, index: int, T: np.ndarray) -> None:
+        """Tie frame ``index``'s pose T to the last keyframe (a lost frame's too, coasting from it)."""
+        kf = self.map.last
+        if kf is not None:
+            self.anchors[index] = (kf.id, np.linalg.inv(kf.T_wc) @ T)
+
+    def trajectory(self, indices: list[int], poses: np.ndarray) -> np.ndarray:
+        """The run's poses with every anchored frame moved with its keyframe's refinement."""
+        out = poses.copy()
+        for n, i in enumerate(indices):
+            if i in self.anchors:
+                kf, rel = self.anchors[i]
+                out[n] = self.map.poses[kf] @ rel
+        return out
+
+    def _xy(self, feats: Features) -> np.ndarray:
+        return undistort(feats.xy, self.seq.intrinsics) if len(feats) else np.zeros((0, 2))
+
+    def _match(self, a: Features, b: Features) -> tuple[np.ndarray, np.ndarray, float]:
+        m = match(a, b, self.p.ratio)
+        q, t = m.query, m.train
+        if self.p.seed is not None and len(q):
+            order = np.random.default_rng((self.p.seed, len(a), len(b), len(q))).permutation(len(q))
+            q, t = q[order], t[order]
+        return q, t, m.elapsed_ms
+
+    def _switch(self, choice: Choice, prev: Frame, prev_cache: dict[str, Features]) -> tuple[float, float]:
+        """Re-extract the last two keyframes with ``choice`` and triangulate their matches at their poses."""
+        kfs = self.map.keyframes[-2:]
+        feats: list[Features] = []
+        ms = 0.0
+        for kf in kfs:
+            f = prev_cache.get(choice.key) if kf.id == prev.index else None
+            if f is None:
+                assert kf.image is not None
+                f = self.registry.extract(choice.extractor, kf.image, choice.params)
+                ms += f.elapsed_ms
+            feats.append(f)
+        if len(kfs) == 1:
+            kf = kfs[0]
+            kf.key, kf.feats, kf.xy, kf.points, kf.tracks = choice.key, feats[0], self._xy(feats[0]), {}, {}
+            self.map.tracks = {}
+            return ms, 0.0
+        q, t, match_ms = self._match(feats[0], feats[1])
+        self.map.switch(kfs[0], kfs[1], choice.key, feats[0], feats[1], self._xy(feats[0]), self._xy(feats[1]), q, t)
+        return ms, match_ms
