@@ -48,6 +48,8 @@ class Keyframe:
 class MapPoint:
     X: np.ndarray  # (3,) world
     obs: dict[int, tuple[int, np.ndarray]] = field(default_factory=dict)  # keyframe id → (keypoint, pixel)
+    key: str = ""  # the configuration of its descriptor
+    descriptor: np.ndarray | None = None  # its latest observation's descriptor
 
 
 class LocalMap:
@@ -72,27 +74,34 @@ class LocalMap:
         for old in self.keyframes[:-2]:
             old.image = None
 
-    def locate(self, ref: Keyframe, query: np.ndarray, train: np.ndarray, xy: np.ndarray, *, min_points: int,
-               min_inliers: int) -> tuple[np.ndarray, np.ndarray] | None:
-        """T_wc of the frame whose undistorted keypoints are ``xy``, from the matches ``ref`` → it (PnP + RANSAC), with
-        the inlier mask over those matches; None with too few map points or inliers."""
-        sees = np.array([ref.points.get(int(q), -1) in self.points for q in query], bool)
-        if int(sees.sum()) < min_points:
+    def correspondences(self, ref: Keyframe, query: np.ndarray, train: np.ndarray) -> dict[int, int]:
+        """Frame keypoint → map point, through the matches from ``ref`` whose keypoint there sees a point."""
+        out: dict[int, int] = {}
+        for q, t in zip(query.tolist(), train.tolist(), strict=True):
+            pid = ref.points.get(q)
+            if pid is not None and pid in self.points:
+                out.setdefault(t, pid)
+        return out
+
+    def locate(self, xy: np.ndarray, seen: dict[int, int], *, min_points: int,
+               min_inliers: int) -> tuple[np.ndarray, dict[int, int]] | None:
+        """T_wc of the frame whose undistorted keypoints are ``xy`` from its keypoint → point correspondences (PnP +
+        RANSAC), with the inlying ones; None with too few points or inliers."""
+        if len(seen) < min_points:
             return None
-        X = np.array([self.points[ref.points[int(q)]].X for q in query[sees]], np.float64)
-        ok, rvec, tvec, inl = cv2.solvePnPRansac(X, xy[train[sees]].astype(np.float64), self.K, None,
-                                                 reprojectionError=HUBER_PX, confidence=0.999, iterationsCount=200,
-                                                 flags=cv2.SOLVEPNP_EPNP)
+        kps = list(seen)
+        X = np.array([self.points[seen[k]].X for k in kps], np.float64)
+        x = xy[kps].astype(np.float64)
+        ok, rvec, tvec, inl = cv2.solvePnPRansac(X, x, self.K, None, reprojectionError=HUBER_PX, confidence=0.999,
+                                                 iterationsCount=200, flags=cv2.SOLVEPNP_EPNP)
         if not ok or inl is None or len(inl) < min_inliers:
             return None
         idx = inl.ravel()
-        rvec, tvec = cv2.solvePnPRefineLM(X[idx], xy[train[sees]][idx].astype(np.float64), self.K, None, rvec, tvec)
+        rvec, tvec = cv2.solvePnPRefineLM(X[idx], x[idx], self.K, None, rvec, tvec)
         T_cw = np.eye(4)
         T_cw[:3, :3] = cv2.Rodrigues(rvec)[0]
         T_cw[:3, 3] = tvec.ravel()
-        mask = np.zeros(len(query), bool)
-        mask[np.flatnonzero(sees)[idx]] = True
-        return np.linalg.inv(T_cw), mask
+        return np.linalg.inv(T_cw), {kps[n]: seen[kps[n]] for n in idx.tolist()}
 
     def associate(self, ref: Keyframe, cur: Keyframe, query: np.ndarray, train: np.ndarray) -> int:
         """Carry ``ref``'s points and tracks to ``cur`` through the matches; triangulate tracks with parallax enough.
@@ -104,9 +113,7 @@ class LocalMap:
             pid = ref.points.get(q)
             if pid is not None and pid in self.points:
                 pt = self.points[pid]
-                if cur.id not in pt.obs and self._reprojection(cur.T_wc, pt.X, cur.xy[t]) <= HUBER_PX:
-                    pt.obs[cur.id] = (t, cur.xy[t])
-                    cur.points[t] = pid
+                self.observe(cur, {t: pid})
                 continue
             tid = ref.tracks.get(q)
             obs = self.tracks.get(tid) if tid is not None else None
@@ -116,6 +123,45 @@ class LocalMap:
             cur.tracks[t] = tid
         self.tracks = live
         return self._triangulate(cur)
+
+    def observe(self, cur: Keyframe, seen: dict[int, int]) -> None:
+        """Add ``cur``'s observations of map points (keypoint → point id) that reproject within √5.991 px."""
+        for t, pid in seen.items():
+            pt = self.points.get(pid)
+            if pt is None or cur.id in pt.obs or t in cur.points or self._reprojection(cur.T_wc, pt.X, cur.xy[t]) > HUBER_PX:
+                continue
+            pt.obs[cur.id] = (t, cur.xy[t])
+            pt.key, pt.descriptor = cur.key, cur.feats.descriptors[t]
+            cur.points[t] = pid
+
+    def search(self, T_wc: np.ndarray, key: str, feats: Features, xy: np.ndarray, *, radius: float, ratio: float,
+               taken: set[int]) -> dict[int, int]:
+        """Map points with a descriptor of configuration ``key`` projected into a frame at ``T_wc``: each matched to
+        the keypoint within ``radius`` px of its projection whose descriptor is nearest, where that one passes the
+        ratio test against the second nearest (Lowe 2004 §7.1; ORB-SLAM's search of the local map, §V-D).
+        Keypoints in ``taken`` are skipped. Returns keypoint → point id."""
+        pids = [pid for pid, pt in self.points.items() if pt.key == key and pt.descriptor is not None]
+        if not pids or not len(xy):
+            return {}
+        X = np.array([self.points[pid].X for pid in pids])
+        T_cw = np.linalg.inv(T_wc)
+        c = X @ T_cw[:3, :3].T + T_cw[:3, 3]
+        front = c[:, 2] > 0
+        uv = (c[:, :2] / np.where(front, c[:, 2], 1.0)[:, None]) * [self.K[0, 0], self.K[1, 1]] + [self.K[0, 2], self.K[1, 2]]
+        best: dict[int, tuple[float, int]] = {}  # keypoint → (distance, point id)
+        for n in np.flatnonzero(front):
+            near = np.flatnonzero(np.abs(xy - uv[n]).max(axis=1) <= radius)
+            near = near[[k not in taken for k in near.tolist()]] if taken else near
+            if not len(near):
+                continue
+            d = _distances(self.points[pids[n]].descriptor, feats.descriptors[near], feats.descriptor_kind)
+            order = np.argsort(d)
+            if len(order) > 1 and not d[order[0]] < ratio * d[order[1]]:
+                continue
+            k, dist = int(near[order[0]]), float(d[order[0]])
+            if k not in best or dist < best[k][0]:
+                best[k] = (dist, pids[n])
+        return {k: pid for k, (_, pid) in best.items()}
 
     def switch(self, a: Keyframe, b: Keyframe, key: str, fa: Features, fb: Features, xa: np.ndarray, xb: np.ndarray,
                query: np.ndarray, train: np.ndarray) -> int:
@@ -194,7 +240,7 @@ class LocalMap:
             if not np.isfinite(X).all() or any(self._reprojection(self.poses[i], X, x) > HUBER_PX for i, _, x in obs):
                 continue
             pid = self._new_id()
-            self.points[pid] = MapPoint(X, {i: (kp, x) for i, kp, x in obs})
+            self.points[pid] = MapPoint(X, {i: (kp, x) for i, kp, x in obs}, cur.key, cur.feats.descriptors[obs[-1][1]])
             for kf in self.keyframes[-len(obs) - 1:]:
                 for i, kp, _ in obs:
                     if kf.id == i:
@@ -203,3 +249,11 @@ class LocalMap:
             del self.tracks[tid]
             made += 1
         return made
+
+
+def _distances(d: np.ndarray | None, many: np.ndarray, kind: str) -> np.ndarray:
+    """Hamming distances (binary descriptors) or L2 distances (real ones) from ``d`` to each row of ``many``."""
+    assert d is not None
+    if kind == "binary":
+        return np.unpackbits(np.bitwise_xor(many, d[None, :]), axis=1).sum(axis=1).astype(np.float64)
+    return np.linalg.norm(many.astype(np.float64) - d[None, :].astype(np.float64), axis=1)

@@ -1,32 +1,36 @@
-"""Monocular frame-to-frame visual odometry where the extractor may change every frame.
+"""Monocular visual odometry where the extractor may change every frame, with a local map (default) or two-view.
 
 For each frame k (DESIGN.md, "Evaluation"; the paper's §V runs its extractors inside a SLAM front end):
 
 1. ``chooser(frame, history)`` names the extractor α and parameters Θ′ for this frame (a fixed
-   configuration, a sweep cell, or the nFEX advisor);
+   configuration, a sweep cell, or the nFEX advisor) — or ``Proposals``, candidates a judge verifies in turn;
 2. the frame's features are extracted with (α, Θ′); when the choice differs from frame k−1's, frame
    k−1 is re-extracted with it so that the descriptors are comparable (its cost is counted in frame
    k's extraction time — a real front end would pay it too);
 3. ratio-test matching with the extractor's norm, essential matrix with RANSAC, ``recoverPose``
-   (``geometry``);
-4. the pose is chained: T_w,k = T_w,k−1 · T_k←k−1⁻¹ with T_k←k−1 = [R | s·t].
+   (``geometry``, ``twoview``): the pair's estimate (R, unit t), which the front-end checks and the judge see and
+   ``FrameRecord.estimate`` keeps, whichever way the trajectory is then scaled;
+4. the accepted pair places frame k.
 
-Scale s (one camera cannot observe it). ``scale="triangulated"`` (default) keeps one consistent,
-arbitrary scale along the run: the first step has length 1; each later step's inliers are
-triangulated (camera k−1 at [I|0], camera k at [R|t], |t| = 1) and the points also seen in the
-previous step (same keypoints of frame k−1, so only while the configuration is unchanged) give
-s_k = median(‖X_prev‖ / ‖X_cur‖) of their distances from camera k−1 — the previous step's points
-being already in the run's scale. Without enough common points (< ``min_scale_points``, or after a
-configuration change) the previous step's length is kept (constant speed). ``scale="unit"`` takes
-every step as length 1. Either way a step whose median inlier parallax is below ``still_px`` has no
-translation, and monocular ATE is computed after Sim(3) alignment (evo ``-as``), which absorbs the
-one global scale. ``scale="gt"`` takes each step's length from the ground truth — a diagnostic that
-isolates rotation and direction errors, never used for the reported tables.
+Placing it, ``scale="map"`` (default; ``tracking``, ``localmap``, ``bundle``): frame k is located against a local
+map of points triangulated from two or more keyframes — PnP + RANSAC where enough map points are seen, the
+essential matrix scaled by the last step's length otherwise — and a frame that moved becomes a keyframe, after
+which a sliding-window bundle adjustment (GTSAM) refines the last keyframes and their points, its oldest held so
+that the map keeps its scale. A change of configuration re-extracts the last two keyframes with the new one and
+triangulates their matches at their known poses: a switch costs those extractions, not the trajectory's scale.
+The returned poses are the refined ones (a frame between keyframes moves with its keyframe).
+
+The two-view VO (``twoview.ScaleChain``) chains T_w,k = T_w,k−1 · T_k←k−1⁻¹ with T_k←k−1 = [R | s·t]:
+``scale="triangulated"`` takes s from the points the previous step also triangulated (only while the
+configuration is unchanged, so a switch restarts it at constant speed), ``"unit"`` takes s = 1, and ``"gt"`` each
+step's length from the ground truth — a diagnostic that isolates rotation and direction errors. Either way a step
+whose median inlier parallax is below ``still_px`` has no translation, and monocular ATE is computed after Sim(3)
+alignment (evo ``-as``), which absorbs the one global scale.
 
 Tracking loss (too few keypoints, matches or inliers, or no essential matrix) never raises: the frame
 is marked lost, its pose follows the last good motion (constant velocity), and the next frame is
-matched against it again (frame-to-frame VO has no map to re-initialise). A run whose lost fraction of
-frame pairs exceeds ``max_lost_fraction`` is *failed* (the paper's "fail").
+matched against it again (the map, where there is one, locates the next accepted frame against its last keyframe).
+A run whose lost fraction of frame pairs exceeds ``max_lost_fraction`` is *failed* (the paper's "fail").
 
 Front-end checks (``nfex_slam.motion.StepChecks``, per agent from the graph; off by default): a pair whose rotation
 or change of heading exceeds what the agent's motion allows is treated as lost in the same way — every
@@ -91,6 +95,7 @@ class VOParams:
     window: int = 7
     window_fixed: int = 2
     ba_iterations: int = 10
+    search_radius_px: float = 8.0  # a map point's projection to a keypoint (ORB-SLAM: 2.5–4 px × the pyramid scale)
 
 
 @dataclass(frozen=True)

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+import cv2
 import numpy as np
 
 from ..datasets.base import Frame, Sequence
@@ -28,7 +29,7 @@ from .localmap import Keyframe, LocalMap
 
 if TYPE_CHECKING:
     from .pipeline import Choice, Extractors, VOParams
-    from .twoview import Try
+    from .twoview import Step, Try
 
 
 class MapTracker:
@@ -61,18 +62,31 @@ class MapTracker:
             q, t, ms = self._match(ref.feats, taken.feats)
             match_ms += ms
         xy = self._xy(taken.feats)
-        located = self.map.locate(ref, q, t, xy, min_points=p.min_map_points, min_inliers=p.min_inliers)
+        seen = self.map.correspondences(ref, q, t)
+        located = self.map.locate(xy, seen, min_points=p.min_map_points, min_inliers=p.min_inliers)
         moved = step.parallax_px >= p.still_px
         if located is not None:
-            T, inliers, how = located[0], int(located[1].sum()), "pnp"
+            T, how = located[0], "pnp"
         else:
+            R, unit = self._essential(prev_cache[key], taken.feats, step)
             forward = np.eye(4)  # camera k-1 → camera k
-            forward[:3, :3] = step.R
-            forward[:3, 3] = (self.length if moved else 0.0) * step.t
-            T, inliers, how = prev_pose @ np.linalg.inv(forward), 0, "essential"
+            forward[:3, :3] = R
+            forward[:3, 3] = (self.length if moved else 0.0) * unit
+            T, how = prev_pose @ np.linalg.inv(forward), "essential"
+        # the window's points projected where the first pose puts them find the keypoints the matches missed
+        found = self.map.search(T, key, taken.feats, xy, radius=p.search_radius_px, ratio=p.ratio,
+                                taken=set(located[1]) if located is not None else set())
+        both = {**found, **(located[1] if located is not None else {})}
+        again = self.map.locate(xy, both, min_points=p.min_map_points, min_inliers=p.min_inliers)
+        if again is not None:
+            T, how = again[0], "pnp"
+            located = again
+        inliers = len(located[1]) if located is not None else 0
         if moved:
             kf = Keyframe(frame.index, T, key, taken.feats, xy, frame.image)
             self.map.add(kf)
+            if located is not None:
+                self.map.observe(kf, located[1])
             self.map.associate(ref, kf, q, t)
             self.map.refine()
             self.map.forget(p.window + 2)
@@ -95,6 +109,21 @@ class MapTracker:
                 kf, rel = self.anchors[i]
                 out[n] = self.map.poses[kf] @ rel
         return out
+
+    def _essential(self, a: Features, b: Features, step: Step) -> tuple[np.ndarray, np.ndarray]:
+        """R and unit t of the pair re-estimated with MAGSAC++ (Barath et al. 2020; ``cv2.USAC_MAGSAC``) on all its
+        matches, or the pair's own estimate where that finds no model: a map that starts or restarts on this pair
+        inherits its direction, and RANSAC's draw among near-equal models is what made two-view runs spread."""
+        q, t = step.matches
+        if len(q) < 5:
+            return step.R, step.t
+        p1, p2 = self._xy(a)[q], self._xy(b)[t]
+        K = self.seq.intrinsics.K
+        E, mask = cv2.findEssentialMat(p1, p2, K, method=cv2.USAC_MAGSAC, prob=0.999, threshold=self.p.ransac_threshold_px)
+        if E is None or mask is None or E.shape != (3, 3):
+            return step.R, step.t
+        _, R, t, _, _ = cv2.recoverPose(E, p1, p2, K, distanceThresh=1e6, mask=mask.copy())
+        return R, t.ravel() / max(float(np.linalg.norm(t)), 1e-12)
 
     def _xy(self, feats: Features) -> np.ndarray:
         return undistort(feats.xy, self.seq.intrinsics) if len(feats) else np.zeros((0, 2))
