@@ -12,7 +12,10 @@ keypoints see which map point (``points``) or extend which pending track (``trac
   where it reprojects within √5.991 px; any other match starts or extends a track. A track is triangulated
   (DLT, ``cv2.triangulatePoints``, from its first and last views, whose poses are known) once the angle between
   those two rays reaches ``min_angle_deg`` and the point lies in front of, and reprojects within √5.991 px in,
-  every view of the track — ORB-SLAM's tests for a new point (Mur-Artal et al. 2015, §VI-C).
+  every view of the track — ORB-SLAM's tests for a new point (Mur-Artal et al. 2015, §IV-D and §VI-C).
+- **Search by projection** (``search``): the map points are projected where the first pose puts frame k, each
+  matched to the nearest descriptor within ``radius`` px that passes the ratio test; PnP is re-run on all
+  correspondences, and a keyframe observes the inlying ones.
 - **Refinement**: after each new keyframe, ``bundle.adjust`` over the last ``window`` keyframes with the oldest
   ``fixed`` held; observations that reproject beyond √5.991 px afterwards are dropped, and points left with fewer
   than two.
@@ -53,7 +56,7 @@ class MapPoint:
 
 
 class LocalMap:
-    def __init__(self, K: np.ndarray, *, window: int = 7, fixed: int = 2, min_angle_deg: float = 1.0,
+    def __init__(self, K: np.ndarray, *, window: int = 7, fixed: int = 2, min_angle_deg: float = 0.36,
                  ba_iterations: int = 10) -> None:
         self.K = K
         self.window, self.fixed, self.ba_iterations = window, fixed, ba_iterations

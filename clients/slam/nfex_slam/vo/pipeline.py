@@ -88,10 +88,11 @@ class VOParams:
     seed: int | None = None  # None: deterministic; else the correspondences are shuffled per frame
     # before RANSAC (OpenCV seeds its RANSAC itself, so this is what makes runs differ)
     # the local map (scale="map"; localmap, bundle): PnP needs min_map_points map points among the matches
-    # (ORB-SLAM tracks a reference keyframe on ≥ 15 matches); new points need rays min_angle_deg apart (ORB-SLAM:
-    # cos < 0.9998, 1.15°); the window's oldest window_fixed keyframes hold the gauge
+    # (ORB-SLAM tracks a reference keyframe on ≥ 15 matches); new points need rays min_angle_deg apart (ORB-SLAM's
+    # initialiser: cos < 0.99998, 0.36°; keyframes here are consecutive moving frames, closer than ORB-SLAM's);
+    # the window's oldest window_fixed keyframes hold the gauge
     min_map_points: int = 15
-    min_angle_deg: float = 1.0
+    min_angle_deg: float = 0.36
     window: int = 7
     window_fixed: int = 2
     ba_iterations: int = 10
