@@ -99,12 +99,12 @@ class LocalMap:
                                                  iterationsCount=200, flags=cv2.SOLVEPNP_EPNP)
         if not ok or inl is None or len(inl) < min_inliers:
             return None
-        idx = inl.ravel()
+        idx: np.ndarray = inl.ravel().astype(np.int64)
         rvec, tvec = cv2.solvePnPRefineLM(X[idx], x[idx], self.K, None, rvec, tvec)
         T_cw = np.eye(4)
         T_cw[:3, :3] = cv2.Rodrigues(rvec)[0]
         T_cw[:3, 3] = tvec.ravel()
-        return np.linalg.inv(T_cw), {kps[n]: seen[kps[n]] for n in idx.tolist()}
+        return np.linalg.inv(T_cw), {kps[int(n)]: seen[kps[int(n)]] for n in idx}
 
     def associate(self, ref: Keyframe, cur: Keyframe, query: np.ndarray, train: np.ndarray) -> int:
         """Carry ``ref``'s points and tracks to ``cur`` through the matches; triangulate tracks with parallax enough.
@@ -115,7 +115,6 @@ class LocalMap:
                 continue
             pid = ref.points.get(q)
             if pid is not None and pid in self.points:
-                pt = self.points[pid]
                 self.observe(cur, {t: pid})
                 continue
             tid = ref.tracks.get(q)
