@@ -42,7 +42,7 @@ def test_the_window_adjustment_recovers_poses_and_points_with_its_oldest_held(se
     rng = np.random.default_rng(seed)
     poses = {i: _pose(0.03 * i, 0.2 * i, 1.0 * i) for i in range(5)}
     X = rng.uniform([-4, -2, 8], [4, 2, 20], (60, 3))
-    obs = [(i, j, xy) for i, T in poses.items() for j, xy in enumerate(_project(T, X))]
+    obs = [(i, j, xy, 1.0) for i, T in poses.items() for j, xy in enumerate(_project(T, X))]
     start = {i: T.copy() for i, T in poses.items()}
     for i in (2, 3, 4):
         start[i][:3, 3] += rng.normal(0, noise, 3)

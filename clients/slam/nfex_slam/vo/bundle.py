@@ -2,10 +2,10 @@
 
 Over the window's keyframe poses T_wc,i and the points X_j they see (each point seen by at least two of them):
 
-    min  Σ_ij ρ_H( ‖π(K, T_wc,i⁻¹ · X_j) − x_ij‖ / σ ),   σ = 1 px,
+    min  Σ_ij ρ_H( ‖π(K, T_wc,i⁻¹ · X_j) − x_ij‖ / σ_ij ),
 
-with one ``GenericProjectionFactorCal3_S2`` per observation x_ij (undistorted pixels, pinhole K), ρ_H the Huber
-loss with k = √5.991 px (χ² with 2 degrees of freedom at 95 %, ORB-SLAM's local BA: Mur-Artal et al. 2015, §VI-D),
+with one ``GenericProjectionFactorCal3_S2`` per observation x_ij (undistorted pixels, pinhole K), σ_ij the
+keypoint's scale (``localmap.keypoint_sigma``: 1 px at the finest), ρ_H the Huber loss with k = √5.991 (χ² with 2 degrees of freedom at 95 %, ORB-SLAM's local BA: Mur-Artal et al. 2015, §VI-D),
 solved by Levenberg–Marquardt. The oldest ``fixed`` keyframes of the window are held where they are
 (``NonlinearEqualityPose3``): that fixes the gauge — the seven degrees of freedom a monocular reconstruction leaves
 free, its scale among them — at the map's, so the window refines the scale it inherits and never re-chooses it.
@@ -21,20 +21,19 @@ HUBER_PX = float(np.sqrt(5.991))  # χ²(2 dof, 95 %) in pixels: ORB-SLAM's thre
 
 def adjust(
     poses: Mapping[int, np.ndarray], fixed: Iterable[int], points: Mapping[int, np.ndarray],
-    observations: Iterable[tuple[int, int, np.ndarray]], K: np.ndarray, *, iterations: int = 10,
+    observations: Iterable[tuple[int, int, np.ndarray, float]], K: np.ndarray, *, iterations: int = 10,
     hold_range: tuple[int, int] | None = None,
 ) -> tuple[dict[int, np.ndarray], dict[int, np.ndarray]]:
     """Refined camera-to-world poses (4×4) and world points of one window; the fixed poses come back unchanged.
 
-    ``observations`` are (keyframe id, point id, undistorted pixel); an observation of a pose or point not given
-    is skipped.
+    ``observations`` are (keyframe id, point id, undistorted pixel, σ in px); an observation of a pose or point not
+    given is skipped.
     """
     import gtsam  # heavy (a 40 MB extension): imported where the map adjusts, not with the package
     from gtsam.symbol_shorthand import L, X
 
     cal = gtsam.Cal3_S2(float(K[0, 0]), float(K[1, 1]), float(K[0, 1]), float(K[0, 2]), float(K[1, 2]))
-    noise = gtsam.noiseModel.Robust.Create(
-        gtsam.noiseModel.mEstimator.Huber.Create(HUBER_PX), gtsam.noiseModel.Isotropic.Sigma(2, 1.0))
+    noises: dict[float, object] = {}
     graph = gtsam.NonlinearFactorGraph()
     values = gtsam.Values()
     for i, T in poses.items():
@@ -47,9 +46,12 @@ def adjust(
         graph.add(gtsam.RangeFactorPose3(X(a), X(b), d, gtsam.noiseModel.Isotropic.Sigma(1, 1e-6 * max(d, 1e-9))))
     for j, Xj in points.items():
         values.insert(L(j), np.asarray(Xj, float))
-    for i, j, xy in observations:
+    for i, j, xy, sigma in observations:
         if i in poses and j in points:
-            graph.add(gtsam.GenericProjectionFactorCal3_S2(np.asarray(xy, float), noise, X(i), L(j), cal))
+            if sigma not in noises:  # Huber on the whitened error: the threshold is √5.991 σ in pixels
+                noises[sigma] = gtsam.noiseModel.Robust.Create(
+                    gtsam.noiseModel.mEstimator.Huber.Create(HUBER_PX), gtsam.noiseModel.Isotropic.Sigma(2, sigma))
+            graph.add(gtsam.GenericProjectionFactorCal3_S2(np.asarray(xy, float), noises[sigma], X(i), L(j), cal))
     params = gtsam.LevenbergMarquardtParams()
     params.setMaxIterations(iterations)
     try:

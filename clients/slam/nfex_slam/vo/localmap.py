@@ -32,7 +32,7 @@ import numpy as np
 from ..features import Features
 from .bundle import HUBER_PX, adjust
 
-Obs = tuple[int, int, np.ndarray]  # (keyframe id, keypoint index, undistorted pixel)
+Obs = tuple[int, int, np.ndarray, float]  # (keyframe id, keypoint index, undistorted pixel, σ in px)
 
 
 @dataclass
@@ -43,6 +43,7 @@ class Keyframe:
     feats: Features
     xy: np.ndarray  # (N, 2) undistorted keypoints
     image: np.ndarray | None = None  # kept for the last two keyframes (a switch re-extracts them)
+    sigma: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (N,) each keypoint's σ in px (``keypoint_sigma``)
     points: dict[int, int] = field(default_factory=dict)  # keypoint index → point id
     tracks: dict[int, int] = field(default_factory=dict)  # keypoint index → track id
 
@@ -50,7 +51,7 @@ class Keyframe:
 @dataclass
 class MapPoint:
     X: np.ndarray  # (3,) world
-    obs: dict[int, tuple[int, np.ndarray]] = field(default_factory=dict)  # keyframe id → (keypoint, pixel)
+    obs: dict[int, tuple[int, np.ndarray, float]] = field(default_factory=dict)  # keyframe id → (keypoint, pixel, σ)
     key: str = ""  # the configuration of its descriptor
     descriptor: np.ndarray | None = None  # its latest observation's descriptor
 
@@ -120,8 +121,8 @@ class LocalMap:
             tid = ref.tracks.get(q)
             obs = self.tracks.get(tid) if tid is not None else None
             if obs is None or tid is None or tid in live:
-                obs, tid = [(ref.id, q, ref.xy[q])], self._new_id()
-            live[tid] = [*obs, (cur.id, t, cur.xy[t])]
+                obs, tid = [(ref.id, q, ref.xy[q], float(ref.sigma[q]))], self._new_id()
+            live[tid] = [*obs, (cur.id, t, cur.xy[t], float(cur.sigma[t]))]
             cur.tracks[t] = tid
         self.tracks = live
         return self._triangulate(cur)
@@ -130,9 +131,10 @@ class LocalMap:
         """Add ``cur``'s observations of map points (keypoint → point id) that reproject within √5.991 px."""
         for t, pid in seen.items():
             pt = self.points.get(pid)
-            if pt is None or cur.id in pt.obs or t in cur.points or self._reprojection(cur.T_wc, pt.X, cur.xy[t]) > HUBER_PX:
+            if pt is None or cur.id in pt.obs or t in cur.points or \
+                    self._reprojection(cur.T_wc, pt.X, cur.xy[t]) > HUBER_PX * cur.sigma[t]:
                 continue
-            pt.obs[cur.id] = (t, cur.xy[t])
+            pt.obs[cur.id] = (t, cur.xy[t], float(cur.sigma[t]))
             pt.key, pt.descriptor = cur.key, cur.feats.descriptors[t]
             cur.points[t] = pid
 
@@ -170,7 +172,7 @@ class LocalMap:
         """Keyframes ``a`` then ``b`` (the last two) re-extracted with configuration ``key`` and matched; their matches
         triangulated from the poses they have. Returns the number of new points."""
         for kf, f, x in ((a, fa, xa), (b, fb, xb)):
-            kf.key, kf.feats, kf.xy, kf.points, kf.tracks = key, f, x, {}, {}
+            kf.key, kf.feats, kf.xy, kf.sigma, kf.points, kf.tracks = key, f, x, keypoint_sigma(f), {}, {}
         self.tracks = {}
         return self.associate(a, b, query, train)
 
@@ -183,7 +185,7 @@ class LocalMap:
         seen = {pid: pt for pid, pt in self.points.items() if sum(i in ids for i in pt.obs) >= 2}
         if not seen:
             return
-        obs = [(i, pid, xy) for pid, pt in seen.items() for i, (_, xy) in pt.obs.items() if i in ids]
+        obs = [(i, pid, xy, sigma) for pid, pt in seen.items() for i, (_, xy, sigma) in pt.obs.items() if i in ids]
         poses, xs = adjust({kf.id: kf.T_wc for kf in win}, [kf.id for kf in win[: self.fixed]],
                            {pid: pt.X for pid, pt in seen.items()}, obs, self.K, iterations=self.ba_iterations,
                            hold_range=(win[0].id, win[1].id) if self.fixed == 1 else None)
@@ -193,7 +195,7 @@ class LocalMap:
         for pid, pt in seen.items():
             pt.X = xs[pid]
             for i in [i for i in pt.obs if i in ids]:
-                if self._reprojection(by_id[i].T_wc, pt.X, pt.obs[i][1]) > HUBER_PX:
+                if self._reprojection(by_id[i].T_wc, pt.X, pt.obs[i][1]) > HUBER_PX * pt.obs[i][2]:
                     self._drop(pid, i, by_id[i])
             if len(pt.obs) < 2:
                 for i in list(pt.obs):
@@ -208,7 +210,7 @@ class LocalMap:
         self.keyframes = self.keyframes[-keep:]
 
     def _drop(self, pid: int, i: int, kf: Keyframe) -> None:
-        kp, _ = self.points[pid].obs.pop(i)
+        kp = self.points[pid].obs.pop(i)[0]
         if kf.points.get(kp) == pid:
             del kf.points[kp]
 
@@ -227,7 +229,7 @@ class LocalMap:
     def _triangulate(self, cur: Keyframe) -> int:
         made = 0
         for tid, obs in list(self.tracks.items()):
-            (i0, _, x0), (i1, _, x1) = obs[0], obs[-1]
+            (i0, _, x0, _), (i1, _, x1, _) = obs[0], obs[-1]
             T0, T1 = self.poses[i0], self.poses[i1]
             r0 = T0[:3, :3] @ np.linalg.solve(self.K, [x0[0], x0[1], 1.0])
             r1 = T1[:3, :3] @ np.linalg.solve(self.K, [x1[0], x1[1], 1.0])
@@ -239,12 +241,12 @@ class LocalMap:
             if abs(float(h[3, 0])) < 1e-12:
                 continue
             X = h[:3, 0] / h[3, 0]
-            if not np.isfinite(X).all() or any(self._reprojection(self.poses[i], X, x) > HUBER_PX for i, _, x in obs):
+            if not np.isfinite(X).all() or any(self._reprojection(self.poses[i], X, x) > HUBER_PX * sg for i, _, x, sg in obs):
                 continue
             pid = self._new_id()
-            self.points[pid] = MapPoint(X, {i: (kp, x) for i, kp, x in obs}, cur.key, cur.feats.descriptors[obs[-1][1]])
+            self.points[pid] = MapPoint(X, {i: (kp, x, sg) for i, kp, x, sg in obs}, cur.key, cur.feats.descriptors[obs[-1][1]])
             for kf in self.keyframes[-len(obs) - 1:]:
-                for i, kp, _ in obs:
+                for i, kp, _, _ in obs:
                     if kf.id == i:
                         kf.points[kp] = pid
                         kf.tracks.pop(kp, None)
@@ -259,3 +261,13 @@ def _distances(d: np.ndarray | None, many: np.ndarray, kind: str) -> np.ndarray:
     if kind == "binary":
         return np.unpackbits(np.bitwise_xor(many, d[None, :]), axis=1).sum(axis=1).astype(np.float64)
     return np.linalg.norm(many.astype(np.float64) - d[None, :].astype(np.float64), axis=1)
+
+
+def keypoint_sigma(feats: Features) -> np.ndarray:
+    """Each keypoint's standard deviation in px: its size over the frame's smallest, at least 1 — a keypoint found
+    at a coarser scale is located as coarsely (ORB-SLAM weighs an observation by the scale of its pyramid level,
+    σ = 1.2^level, which this is for ORB: size = 31 × 1.2^level)."""
+    size = np.asarray(feats.size, np.float64)
+    if not len(size) or not (size > 0).any():
+        return np.ones(len(size))
+    return np.maximum(size / size[size > 0].min(), 1.0)

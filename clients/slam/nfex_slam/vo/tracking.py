@@ -25,7 +25,7 @@ import numpy as np
 from ..datasets.base import Frame, Sequence
 from ..features import Features
 from .geometry import match, undistort
-from .localmap import Keyframe, LocalMap
+from .localmap import Keyframe, LocalMap, keypoint_sigma
 
 if TYPE_CHECKING:
     from .pipeline import Choice, Extractors, VOParams
@@ -50,7 +50,7 @@ class MapTracker:
         extra_ms = match_ms = 0.0
         if self.map.last is None:
             feats = prev_cache[key]
-            self.map.add(Keyframe(prev.index, prev_pose, key, feats, self._xy(feats), prev.image))
+            self.map.add(Keyframe(prev.index, prev_pose, key, feats, self._xy(feats), prev.image, keypoint_sigma(feats)))
             self.anchors[prev.index] = (prev.index, np.eye(4))
         elif self.map.last.key != key:
             extra_ms, match_ms = self._switch(taken.choice, prev, prev_cache)
@@ -63,27 +63,27 @@ class MapTracker:
             match_ms += ms
         xy = self._xy(taken.feats)
         seen = self.map.correspondences(ref, q, t)
-        located = self.map.locate(xy, seen, min_points=p.min_map_points, min_inliers=p.min_inliers)
         moved = step.parallax_px >= p.still_px
+        located = self._gate(self.map.locate(xy, seen, min_points=p.min_map_points, min_inliers=p.min_inliers), prev_pose, moved)
         if located is not None:
-            T, how = located[0], "pnp"
+            T = located[0]
         else:
             R, unit = self._essential(prev_cache[key], taken.feats, step)
             forward = np.eye(4)  # camera k-1 → camera k
             forward[:3, :3] = R
             forward[:3, 3] = (self.length if moved else 0.0) * unit
-            T, how = prev_pose @ np.linalg.inv(forward), "essential"
+            T = prev_pose @ np.linalg.inv(forward)
         # the window's points projected where the first pose puts them find the keypoints the matches missed
         found = self.map.search(T, key, taken.feats, xy, radius=p.search_radius_px, ratio=p.ratio,
                                 taken=set(located[1]) if located is not None else set())
         both = {**found, **(located[1] if located is not None else {})}
-        again = self.map.locate(xy, both, min_points=p.min_map_points, min_inliers=p.min_inliers)
+        again = self._gate(self.map.locate(xy, both, min_points=p.min_map_points, min_inliers=p.min_inliers), prev_pose, moved)
         if again is not None:
-            T, how = again[0], "pnp"
-            located = again
+            T, located = again[0], again
+        how = "pnp" if located is not None else "essential"
         inliers = len(located[1]) if located is not None else 0
         if moved:
-            kf = Keyframe(frame.index, T, key, taken.feats, xy, frame.image)
+            kf = Keyframe(frame.index, T, key, taken.feats, xy, frame.image, keypoint_sigma(taken.feats))
             self.map.add(kf)
             if located is not None:
                 self.map.observe(kf, located[1])
@@ -109,6 +109,17 @@ class MapTracker:
                 kf, rel = self.anchors[i]
                 out[n] = self.map.poses[kf] @ rel
         return out
+
+    def _gate(self, located: tuple[np.ndarray, dict[int, int]] | None, prev_pose: np.ndarray,
+              moved: bool) -> tuple[np.ndarray, dict[int, int]] | None:
+        """A PnP pose whose step from frame k−1 changes the last step's length by more than ``max_scale_change`` (the
+        bound the two-view chain puts on a step, against a bad triangulation) is no pose: PnP on points that mostly lie
+        far, or along one line of sight, can agree with a wrong translation."""
+        if located is None or not moved:
+            return located
+        step = float(np.linalg.norm(located[0][:3, 3] - prev_pose[:3, 3]))
+        bound = self.p.max_scale_change
+        return located if self.length / bound <= step <= self.length * bound else None
 
     def _essential(self, a: Features, b: Features, step: Step) -> tuple[np.ndarray, np.ndarray]:
         """R and unit t of the pair re-estimated with MAGSAC++ (Barath et al. 2020; ``cv2.USAC_MAGSAC``) on all its
@@ -150,7 +161,7 @@ class MapTracker:
             feats.append(f)
         if len(kfs) == 1:
             kf = kfs[0]
-            kf.key, kf.feats, kf.xy, kf.points, kf.tracks = choice.key, feats[0], self._xy(feats[0]), {}, {}
+            kf.key, kf.feats, kf.xy, kf.sigma, kf.points, kf.tracks = choice.key, feats[0], self._xy(feats[0]), keypoint_sigma(feats[0]), {}, {}
             self.map.tracks = {}
             return ms, 0.0
         q, t, match_ms = self._match(feats[0], feats[1])
