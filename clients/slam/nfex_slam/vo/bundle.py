@@ -7,12 +7,15 @@ Over the window's keyframe poses T_wc,i and the points X_j they see (each point 
 with one ``GenericProjectionFactorCal3_S2`` per observation x_ij (undistorted pixels, pinhole K), σ_ij the
 keypoint's scale (``localmap.keypoint_sigma``: 1 px at the finest), ρ_H the Huber loss with k = √5.991 (χ² with 2 degrees of freedom at 95 %, ORB-SLAM's local BA: Mur-Artal et al. 2015, §VI-D),
 solved by Levenberg–Marquardt. The oldest ``fixed`` keyframes of the window are held where they are
-(``NonlinearEqualityPose3``): that fixes the gauge — the seven degrees of freedom a monocular reconstruction leaves
-free, its scale among them — at the map's, so the window refines the scale it inherits and never re-chooses it.
+(``NonlinearEqualityPose3``), and with ``hold_range`` the distance between two of them too (``RangeFactorPose3``,
+σ = 10⁻⁶ of it): one pose and that distance, or two poses, fix the gauge — the seven degrees of freedom a monocular
+reconstruction leaves free, its scale among them — at the map's, so the window refines the scale it inherits and
+never re-chooses it, while one held pose lets the second oldest keyframe's direction be corrected.
 """
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -33,7 +36,7 @@ def adjust(
     from gtsam.symbol_shorthand import L, X
 
     cal = gtsam.Cal3_S2(float(K[0, 0]), float(K[1, 1]), float(K[0, 1]), float(K[0, 2]), float(K[1, 2]))
-    noises: dict[float, object] = {}
+    noises: dict[float, Any] = {}
     graph = gtsam.NonlinearFactorGraph()
     values = gtsam.Values()
     for i, T in poses.items():

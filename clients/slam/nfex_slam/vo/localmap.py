@@ -17,8 +17,8 @@ keypoints see which map point (``points``) or extend which pending track (``trac
   matched to the nearest descriptor within ``radius`` px that passes the ratio test; PnP is re-run on all
   correspondences, and a keyframe observes the inlying ones.
 - **Refinement**: after each new keyframe, ``bundle.adjust`` over the last ``window`` keyframes with the oldest
-  ``fixed`` held; observations that reproject beyond √5.991 px afterwards are dropped, and points left with fewer
-  than two.
+  ``fixed`` held (with one held, its distance to the second oldest too); observations that reproject beyond
+  √5.991 σ afterwards are dropped, and points left with fewer than two.
 - **A change of configuration** (``switch``): the last two keyframes are re-extracted with the new configuration and
   their matches triangulated from their known poses, so the new points are in the map's scale.
 """
@@ -57,7 +57,7 @@ class MapPoint:
 
 
 class LocalMap:
-    def __init__(self, K: np.ndarray, *, window: int = 7, fixed: int = 2, min_angle_deg: float = 0.36,
+    def __init__(self, K: np.ndarray, *, window: int = 7, fixed: int = 1, min_angle_deg: float = 0.36,
                  ba_iterations: int = 10) -> None:
         self.K = K
         self.window, self.fixed, self.ba_iterations = window, fixed, ba_iterations

@@ -90,11 +90,15 @@ class VOParams:
     # the local map (scale="map"; localmap, bundle): PnP needs min_map_points map points among the matches
     # (ORB-SLAM tracks a reference keyframe on ≥ 15 matches); new points need rays min_angle_deg apart (ORB-SLAM's
     # initialiser: cos < 0.99998, 0.36°; keyframes here are consecutive moving frames, closer than ORB-SLAM's);
-    # the window's oldest window_fixed keyframes hold the gauge
+    # the map starts on a pair where start_points points (enough to track on) have start_angle_deg of parallax
+    # (ORB-SLAM's initialisation: 1°); the window's oldest window_fixed keyframes are held, and with one held the
+    # distance to the next one too (the seven degrees of freedom of the gauge)
     min_map_points: int = 15
     min_angle_deg: float = 0.36
+    start_points: int = 15
+    start_angle_deg: float = 1.0
     window: int = 7
-    window_fixed: int = 2
+    window_fixed: int = 1
     ba_iterations: int = 10
     search_radius_px: float = 8.0  # a map point's projection to a keypoint (ORB-SLAM: 2.5–4 px × the pyramid scale)
 

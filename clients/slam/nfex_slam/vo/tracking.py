@@ -24,7 +24,7 @@ import numpy as np
 
 from ..datasets.base import Frame, Sequence
 from ..features import Features
-from .geometry import match, undistort
+from .geometry import match, triangulate, undistort
 from .localmap import Keyframe, LocalMap, keypoint_sigma
 
 if TYPE_CHECKING:
@@ -39,6 +39,7 @@ class MapTracker:
                             ba_iterations=p.ba_iterations)
         self.length = 1.0  # the last step's length in the map's scale: the essential matrix's fallback
         self.anchors: dict[int, tuple[int, np.ndarray]] = {}  # frame index → (keyframe id, T_kf⁻¹ · T_k)
+        self.start: Keyframe | None = None  # the frame the map will start from, with no map yet
 
     def place(self, frame: Frame, taken: Try, prev: Frame, prev_cache: dict[str, Features],
               prev_pose: np.ndarray) -> tuple[np.ndarray, float, float, str, int]:
@@ -49,10 +50,8 @@ class MapTracker:
         p, key = self.p, taken.choice.key
         extra_ms = match_ms = 0.0
         if self.map.last is None:
-            feats = prev_cache[key]
-            self.map.add(Keyframe(prev.index, prev_pose, key, feats, self._xy(feats), prev.image, keypoint_sigma(feats)))
-            self.anchors[prev.index] = (prev.index, np.eye(4))
-        elif self.map.last.key != key:
+            return self._start(frame, taken, prev, prev_cache, prev_pose)
+        if self.map.last.key != key:
             extra_ms, match_ms = self._switch(taken.choice, prev, prev_cache)
         ref = self.map.last
         assert ref is not None
@@ -110,6 +109,79 @@ class MapTracker:
                 out[n] = self.map.poses[kf] @ rel
         return out
 
+    def _start(self, frame: Frame, taken: Try, prev: Frame, prev_cache: dict[str, Features],
+               prev_pose: np.ndarray) -> tuple[np.ndarray, float, float, str, int]:
+        """With no map yet: place frame k by the pair's essential matrix, and start the map from the first frame of
+        the run's configuration (the start) and frame k once at least ``start_points`` of their matches triangulate
+        with ``start_angle_deg`` between their rays — ORB-SLAM's monocular initialisation (Mur-Artal et al. 2015, §IV:
+        50 points, 1°) keeps its reference frame until a frame has such parallax with it — or until fewer than twice
+        that many matches are left with it, when the frame becomes the start; a pair that mostly turned has no such
+        parallax, and a map started on it is distorted."""
+        step = taken.step
+        assert step is not None
+        p, key = self.p, taken.choice.key
+        moved = step.parallax_px >= p.still_px
+        xy = self._xy(taken.feats)
+        pair = self._two_view(self._xy(prev_cache[key]), xy, *step.matches)
+        R, unit = (pair[0], pair[1]) if pair is not None else (step.R, step.t)
+        forward = np.eye(4)  # camera k-1 → camera k
+        forward[:3, :3] = R
+        forward[:3, 3] = (self.length if moved else 0.0) * unit
+        T = prev_pose @ np.linalg.inv(forward)
+        if self.start is None or self.start.key != key:
+            feats = prev_cache[key]
+            self.start = Keyframe(prev.index, prev_pose, key, feats, self._xy(feats), prev.image, keypoint_sigma(feats))
+        s, match_ms = self.start, 0.0
+        if s.id == prev.index:
+            q, t = step.matches
+        else:
+            q, t, match_ms = self._match(s.feats, taken.feats)
+            pair = self._two_view(s.xy, xy, q, t)
+        if len(q) < 2 * p.start_points:  # too few matches left with the start (ORB-SLAM: 100): frame k starts again
+            self.start = Keyframe(frame.index, T, key, taken.feats, xy, frame.image, keypoint_sigma(taken.feats))
+            return T, 0.0, match_ms, "essential", 0
+        if not moved or pair is None or self._parallax_points(s.xy[q[pair[2]]], xy[t[pair[2]]], pair[0], pair[1]) < p.start_points:
+            return T, 0.0, match_ms, "essential", 0
+        length = max(float(np.linalg.norm(T[:3, 3] - s.T_wc[:3, 3])), 1e-9)
+        forward[:3, :3], forward[:3, 3] = pair[0], length * pair[1]
+        T = s.T_wc @ np.linalg.inv(forward)
+        kf = Keyframe(frame.index, T, key, taken.feats, xy, frame.image, keypoint_sigma(taken.feats))
+        self.map.add(s)
+        self.anchors[s.id] = (s.id, np.eye(4))
+        self.map.add(kf)
+        self.map.associate(s, kf, q, t)
+        self.length = max(float(np.linalg.norm(T[:3, 3] - prev_pose[:3, 3])), 1e-9)
+        self.start = None
+        self.anchor(frame.index, T)
+        return T, 0.0, match_ms, "essential", 0
+
+    def _parallax_points(self, x0: np.ndarray, x1: np.ndarray, R: np.ndarray, t: np.ndarray) -> int:
+        """How many correspondences triangulate in front of both cameras ([I|0], [R|t]) with rays ``start_angle_deg``
+        apart."""
+        if not len(x0):
+            return 0
+        X, ok = triangulate(x0, x1, self.seq.intrinsics.K, R, t)
+        Kinv = np.linalg.inv(self.seq.intrinsics.K)
+        r0 = np.c_[x0, np.ones(len(x0))] @ Kinv.T
+        r1 = (np.c_[x1, np.ones(len(x1))] @ Kinv.T) @ R  # camera k's rays in camera k−1's frame (Rᵀ r)
+        cos = np.einsum("ij,ij->i", r0, r1) / (np.linalg.norm(r0, axis=1) * np.linalg.norm(r1, axis=1))
+        return int((ok & (cos < np.cos(np.radians(self.p.start_angle_deg)))).sum())
+
+    def _two_view(self, xa: np.ndarray, xb: np.ndarray, q: np.ndarray,
+                  t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """R, unit t and the inlier mask of matches (q, t) between undistorted keypoints ``xa`` and ``xb`` by MAGSAC++
+        (Barath et al. 2020; ``cv2.USAC_MAGSAC``) and ``recoverPose``; None where it finds no model. The map starts
+        and falls back on it: RANSAC's draw among near-equal models of one pair is what made two-view runs spread."""
+        if len(q) < 5:
+            return None
+        p1, p2 = xa[q], xb[t]
+        K = self.seq.intrinsics.K
+        E, mask = cv2.findEssentialMat(p1, p2, K, method=cv2.USAC_MAGSAC, prob=0.999, threshold=self.p.ransac_threshold_px)
+        if E is None or mask is None or E.shape != (3, 3):
+            return None
+        _, R, tt, pose_mask, _ = cv2.recoverPose(E, p1, p2, K, distanceThresh=1e6, mask=mask.copy())
+        return R, tt.ravel() / max(float(np.linalg.norm(tt)), 1e-12), pose_mask.ravel().astype(bool)
+
     def _gate(self, located: tuple[np.ndarray, dict[int, int]] | None, prev_pose: np.ndarray,
               moved: bool) -> tuple[np.ndarray, dict[int, int]] | None:
         """A PnP pose whose step from frame k−1 changes the last step's length by more than ``max_scale_change`` (the
@@ -122,19 +194,9 @@ class MapTracker:
         return located if self.length / bound <= step <= self.length * bound else None
 
     def _essential(self, a: Features, b: Features, step: Step) -> tuple[np.ndarray, np.ndarray]:
-        """R and unit t of the pair re-estimated with MAGSAC++ (Barath et al. 2020; ``cv2.USAC_MAGSAC``) on all its
-        matches, or the pair's own estimate where that finds no model: a map that starts or restarts on this pair
-        inherits its direction, and RANSAC's draw among near-equal models is what made two-view runs spread."""
-        q, t = step.matches
-        if len(q) < 5:
-            return step.R, step.t
-        p1, p2 = self._xy(a)[q], self._xy(b)[t]
-        K = self.seq.intrinsics.K
-        E, mask = cv2.findEssentialMat(p1, p2, K, method=cv2.USAC_MAGSAC, prob=0.999, threshold=self.p.ransac_threshold_px)
-        if E is None or mask is None or E.shape != (3, 3):
-            return step.R, step.t
-        _, R, t, _, _ = cv2.recoverPose(E, p1, p2, K, distanceThresh=1e6, mask=mask.copy())
-        return R, t.ravel() / max(float(np.linalg.norm(t)), 1e-12)
+        """R and unit t of the pair re-estimated by ``_two_view``, or the pair's own estimate where that finds none."""
+        pair = self._two_view(self._xy(a), self._xy(b), *step.matches)
+        return (pair[0], pair[1]) if pair is not None else (step.R, step.t)
 
     def _xy(self, feats: Features) -> np.ndarray:
         return undistort(feats.xy, self.seq.intrinsics) if len(feats) else np.zeros((0, 2))
