@@ -19,8 +19,10 @@ def _copy(seq: Sequence, n: int, blank: tuple[int, ...] = ()) -> ArraySequence:
 
 
 def test_orb_on_kitti01_tracks_and_follows_the_ground_truth(kitti01: Sequence, registry: ExtractorRegistry) -> None:
-    res = run_vo(kitti01, fixed("ORB"), registry=registry, stop=10)
-    assert res.poses.shape == (10, 4, 4)
+    # 20 frames: the map starts once a pair has parallax enough, and the frames before it are
+    # placed two-view (over 10 frames: 0.60 m with the map, 0.24 m two-view; over 20: 0.65 and 0.89 m)
+    res = run_vo(kitti01, fixed("ORB"), registry=registry, stop=20)
+    assert res.poses.shape == (20, 4, 4)
     assert np.allclose(res.poses[0], np.eye(4))
     assert res.lost_count == 0 and not res.failed
     for f in res.frames[1:]:
@@ -28,8 +30,8 @@ def test_orb_on_kitti01_tracks_and_follows_the_ground_truth(kitti01: Sequence, r
         assert f.keypoints > 100 and f.matches >= f.inliers >= 10 and f.extraction_ms > 0 and f.matching_ms > 0
     ate, rpe = window_errors(kitti01, res)
     assert ate is not None and rpe is not None
-    # the car drives ~1.3 m per frame here: 12 m in 10 frames; the Sim(3)-aligned error is a small part of it
-    path = np.linalg.norm(np.diff(kitti01.poses[:10, :3, 3], axis=0), axis=1).sum()
+    # the car drives ~1.3 m per frame here: 25 m in 20 frames; the Sim(3)-aligned error is a small part of it
+    path = np.linalg.norm(np.diff(kitti01.poses[:20, :3, 3], axis=0), axis=1).sum()
     assert ate < 0.05 * path
     # and the estimate moves forward, as the camera does (+z), not backward
     assert res.poses[-1, 2, 3] > 0
