@@ -129,10 +129,10 @@ class LocalMap:
 
     def observe(self, cur: Keyframe, seen: dict[int, int]) -> None:
         """Add ``cur``'s observations of map points (keypoint → point id) that reproject within √5.991 px."""
+        T_cw = np.linalg.inv(cur.T_wc)
         for t, pid in seen.items():
             pt = self.points.get(pid)
-            if pt is None or cur.id in pt.obs or t in cur.points or \
-                    self._reprojection(cur.T_wc, pt.X, cur.xy[t]) > HUBER_PX * cur.sigma[t]:
+            if pt is None or cur.id in pt.obs or t in cur.points or self._error(T_cw, pt.X, cur.xy[t]) > HUBER_PX * cur.sigma[t]:
                 continue
             pt.obs[cur.id] = (t, cur.xy[t], float(cur.sigma[t]))
             pt.key, pt.descriptor = cur.key, cur.feats.descriptors[t]
@@ -192,10 +192,11 @@ class LocalMap:
         for kf in win:
             kf.T_wc = self.poses[kf.id] = poses[kf.id]
         by_id = {kf.id: kf for kf in win}
+        T_cw = {kf.id: np.linalg.inv(kf.T_wc) for kf in win}
         for pid, pt in seen.items():
             pt.X = xs[pid]
             for i in [i for i in pt.obs if i in ids]:
-                if self._reprojection(by_id[i].T_wc, pt.X, pt.obs[i][1]) > HUBER_PX * pt.obs[i][2]:
+                if self._error(T_cw[i], pt.X, pt.obs[i][1]) > HUBER_PX * pt.obs[i][2]:
                     self._drop(pid, i, by_id[i])
             if len(pt.obs) < 2:
                 for i in list(pt.obs):
@@ -218,8 +219,13 @@ class LocalMap:
         self._next += 1
         return self._next
 
-    def _reprojection(self, T_wc: np.ndarray, X: np.ndarray, xy: np.ndarray) -> float:
-        T_cw = np.linalg.inv(T_wc)
+    def _T_cw(self, cache: dict[int, np.ndarray], i: int) -> np.ndarray:
+        if i not in cache:
+            cache[i] = np.linalg.inv(self.poses[i])
+        return cache[i]
+
+    def _error(self, T_cw: np.ndarray, X: np.ndarray, xy: np.ndarray) -> float:
+        """Pixels between the projection of world point X by a camera at T_cw (world → camera) and ``xy``."""
         c = T_cw[:3, :3] @ X + T_cw[:3, 3]
         if c[2] <= 0:
             return float("inf")
@@ -228,6 +234,7 @@ class LocalMap:
 
     def _triangulate(self, cur: Keyframe) -> int:
         made = 0
+        T_cw: dict[int, np.ndarray] = {}
         for tid, obs in list(self.tracks.items()):
             (i0, _, x0, _), (i1, _, x1, _) = obs[0], obs[-1]
             T0, T1 = self.poses[i0], self.poses[i1]
@@ -235,13 +242,14 @@ class LocalMap:
             r1 = T1[:3, :3] @ np.linalg.solve(self.K, [x1[0], x1[1], 1.0])
             if float(r0 @ r1) / (np.linalg.norm(r0) * np.linalg.norm(r1)) > self.min_cos:
                 continue
-            P0 = self.K @ np.linalg.inv(T0)[:3]
-            P1 = self.K @ np.linalg.inv(T1)[:3]
+            P0 = self.K @ self._T_cw(T_cw, i0)[:3]
+            P1 = self.K @ self._T_cw(T_cw, i1)[:3]
             h = cv2.triangulatePoints(P0, P1, np.asarray(x0, np.float64).reshape(2, 1), np.asarray(x1, np.float64).reshape(2, 1))
             if abs(float(h[3, 0])) < 1e-12:
                 continue
             X = h[:3, 0] / h[3, 0]
-            if not np.isfinite(X).all() or any(self._reprojection(self.poses[i], X, x) > HUBER_PX * sg for i, _, x, sg in obs):
+            if not np.isfinite(X).all() or any(
+                    self._error(self._T_cw(T_cw, i), X, x) > HUBER_PX * sg for i, _, x, sg in obs):
                 continue
             pid = self._new_id()
             self.points[pid] = MapPoint(X, {i: (kp, x, sg) for i, kp, x, sg in obs}, cur.key, cur.feats.descriptors[obs[-1][1]])
