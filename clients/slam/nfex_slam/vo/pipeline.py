@@ -1,32 +1,36 @@
-"""Monocular frame-to-frame visual odometry where the extractor may change every frame.
+"""Monocular visual odometry where the extractor may change every frame, with a local map (default) or two-view.
 
 For each frame k (DESIGN.md, "Evaluation"; the paper's §V runs its extractors inside a SLAM front end):
 
 1. ``chooser(frame, history)`` names the extractor α and parameters Θ′ for this frame (a fixed
-   configuration, a sweep cell, or the nFEX advisor);
+   configuration, a sweep cell, or the nFEX advisor) — or ``Proposals``, candidates a judge verifies in turn;
 2. the frame's features are extracted with (α, Θ′); when the choice differs from frame k−1's, frame
    k−1 is re-extracted with it so that the descriptors are comparable (its cost is counted in frame
    k's extraction time — a real front end would pay it too);
 3. ratio-test matching with the extractor's norm, essential matrix with RANSAC, ``recoverPose``
-   (``geometry``);
-4. the pose is chained: T_w,k = T_w,k−1 · T_k←k−1⁻¹ with T_k←k−1 = [R | s·t].
+   (``geometry``, ``twoview``): the pair's estimate (R, unit t), which the front-end checks and the judge see and
+   ``FrameRecord.estimate`` keeps, whichever way the trajectory is then scaled;
+4. the accepted pair places frame k.
 
-Scale s (one camera cannot observe it). ``scale="triangulated"`` (default) keeps one consistent,
-arbitrary scale along the run: the first step has length 1; each later step's inliers are
-triangulated (camera k−1 at [I|0], camera k at [R|t], |t| = 1) and the points also seen in the
-previous step (same keypoints of frame k−1, so only while the configuration is unchanged) give
-s_k = median(‖X_prev‖ / ‖X_cur‖) of their distances from camera k−1 — the previous step's points
-being already in the run's scale. Without enough common points (< ``min_scale_points``, or after a
-configuration change) the previous step's length is kept (constant speed). ``scale="unit"`` takes
-every step as length 1. Either way a step whose median inlier parallax is below ``still_px`` has no
-translation, and monocular ATE is computed after Sim(3) alignment (evo ``-as``), which absorbs the
-one global scale. ``scale="gt"`` takes each step's length from the ground truth — a diagnostic that
-isolates rotation and direction errors, never used for the reported tables.
+Placing it, ``scale="map"`` (default; ``tracking``, ``localmap``, ``bundle``): frame k is located against a local
+map of points triangulated from two or more keyframes — PnP + RANSAC where enough map points are seen, the
+essential matrix scaled by the last step's length otherwise — and a frame that moved becomes a keyframe, after
+which a sliding-window bundle adjustment (GTSAM) refines the last keyframes and their points, its oldest held so
+that the map keeps its scale. A change of configuration re-extracts the last two keyframes with the new one and
+triangulates their matches at their known poses: a switch costs those extractions, not the trajectory's scale.
+The returned poses are the refined ones (a frame between keyframes moves with its keyframe).
+
+The two-view VO (``twoview.ScaleChain``) chains T_w,k = T_w,k−1 · T_k←k−1⁻¹ with T_k←k−1 = [R | s·t]:
+``scale="triangulated"`` takes s from the points the previous step also triangulated (only while the
+configuration is unchanged, so a switch restarts it at constant speed), ``"unit"`` takes s = 1, and ``"gt"`` each
+step's length from the ground truth — a diagnostic that isolates rotation and direction errors. Either way a step
+whose median inlier parallax is below ``still_px`` has no translation, and monocular ATE is computed after Sim(3)
+alignment (evo ``-as``), which absorbs the one global scale.
 
 Tracking loss (too few keypoints, matches or inliers, or no essential matrix) never raises: the frame
 is marked lost, its pose follows the last good motion (constant velocity), and the next frame is
-matched against it again (frame-to-frame VO has no map to re-initialise). A run whose lost fraction of
-frame pairs exceeds ``max_lost_fraction`` is *failed* (the paper's "fail").
+matched against it again (the map, where there is one, locates the next accepted frame against its last keyframe).
+A run whose lost fraction of frame pairs exceeds ``max_lost_fraction`` is *failed* (the paper's "fail").
 
 Front-end checks (``nfex_slam.motion.StepChecks``, per agent from the graph; off by default): a pair whose rotation
 or change of heading exceeds what the agent's motion allows is treated as lost in the same way — every
@@ -46,7 +50,8 @@ from ..datasets.base import Frame, Sequence
 from ..features import Features
 from ..motion import NO_CHECKS, StepChecks, motion_direction, pair_errors, relative_truth
 from ..pairs import ACCEPT, NEXT, STILL_PX, PairEvidence, Prior, Verdict
-from .geometry import match, relative_pose, triangulate, undistort
+from .tracking import MapTracker
+from .twoview import ScaleChain, Try, try_pair
 
 
 class Extractors(Protocol):
@@ -76,12 +81,26 @@ class VOParams:
     min_inliers: int = 10
     ransac_threshold_px: float = 1.0
     still_px: float = STILL_PX  # median inlier parallax below which a step has no translation
-    scale: str = "triangulated"  # "triangulated" | "unit" | "gt"
+    scale: str = "map"  # "map" (the local map) | two-view: "triangulated" | "unit" | "gt"
     min_scale_points: int = 8
     max_scale_change: float = 2.0  # per step, against a bad triangulation
     max_lost_fraction: float = 0.3
     seed: int | None = None  # None: deterministic; else the correspondences are shuffled per frame
     # before RANSAC (OpenCV seeds its RANSAC itself, so this is what makes runs differ)
+    # the local map (scale="map"; localmap, bundle): PnP needs min_map_points map points among the matches
+    # (ORB-SLAM tracks a reference keyframe on ≥ 15 matches); new points need rays min_angle_deg apart (ORB-SLAM's
+    # initialiser: cos < 0.99998, 0.36°; keyframes here are consecutive moving frames, closer than ORB-SLAM's);
+    # the map starts on a pair where start_points points (enough to track on) have start_angle_deg of parallax
+    # (ORB-SLAM's initialisation: 1°); the window's oldest window_fixed keyframes are held, and with one held the
+    # distance to the next one too (the seven degrees of freedom of the gauge)
+    min_map_points: int = 15
+    min_angle_deg: float = 0.36
+    start_points: int = 15
+    start_angle_deg: float = 1.0
+    window: int = 7
+    window_fixed: int = 1
+    ba_iterations: int = 10
+    search_radius_px: float = 8.0  # a map point's projection to a keypoint (ORB-SLAM: 2.5–4 px × the pyramid scale)
 
 
 @dataclass(frozen=True)
@@ -103,6 +122,8 @@ class FrameRecord:
     parallax_px: float = 0.0
     tries: int = 1  # candidates tried on this pair (verification; extraction and matching ms count them all)
     verdict: dict[str, Any] | None = field(default=None, compare=False)  # verification.Verdict.as_dict()
+    located: str = ""  # how the local map placed the frame: "pnp" | "essential" ("" without a map, or lost)
+    map_points: int = 0  # PnP inliers among the map's points
 
     @property
     def rejected(self) -> bool:
@@ -184,7 +205,8 @@ def run_vo(
     stamps: list[float] = []
     velocity = np.eye(4)  # last good T_k-1←k (camera k in camera k-1)
     moving: tuple[np.ndarray, np.ndarray] | None = None  # the last accepted step that translated (R, t)
-    scale = _Scale(p, K)
+    scale = ScaleChain(p, K)
+    tracker = MapTracker(sequence, p, registry) if p.scale == "map" else None
     prev: tuple[Frame, Choice, dict[str, Features]] | None = None  # the last frame, its taken choice, every tried one's features
     shape = (0, 0)
     for i in range(start, stop):
@@ -192,24 +214,25 @@ def run_vo(
         shape = frame.image.shape[:2]
         proposed = chooser(frame, records)
         choices, judge = (proposed.choices, proposed.judge) if isinstance(proposed, Proposals) else ((_as_choice(proposed),), None)
-        tries: list[_Try] = []
+        tries: list[Try] = []
         evidence: list[PairEvidence] = []
         verdict: Verdict | None = None
         estimate: tuple[np.ndarray, np.ndarray] | None = None
         errors: tuple[float, float] | None = None
+        located, map_points, extra_ms, extra_match_ms = "", 0, 0.0, 0.0
         if prev is None:
-            first = _Try(choices[0], registry.extract(choices[0].extractor, frame.image, choices[0].params))
+            first = Try(choices[0], registry.extract(choices[0].extractor, frame.image, choices[0].params))
             tries.append(first)
             if measure is not None:
                 first.metrics = dict(measure(first.feats, frame.image, None))
-            taken: _Try | None = first
+            taken: Try | None = first
             reason = ""
             pose = np.eye(4)
         else:
             prev_frame, prev_choice, prev_cache = prev
             prior = Prior(moving[0], motion_direction(*moving)) if moving is not None else None
             for n, choice in enumerate(choices):
-                t = _try_pair(choice, frame, prev_frame, prev_cache, sequence, K, p, registry, measure)
+                t = try_pair(choice, frame, prev_frame, prev_cache, sequence, K, p, registry, measure)
                 if t.step is not None:
                     moved = t.step.parallax_px >= p.still_px
                     t.reason = checks.verdict(t.step.R, t.step.t, frame.timestamp - prev_frame.timestamp, moving, moved)
@@ -240,140 +263,36 @@ def run_vo(
                 step = taken.step
                 if step.parallax_px >= p.still_px:
                     moving = (step.R, step.t)
-                length = scale.step(step, taken.choice == prev_choice, prev_frame, frame)
-                forward = np.eye(4)  # camera k-1 → camera k
-                forward[:3, :3] = step.R
-                forward[:3, 3] = length * step.t
-                velocity = np.asarray(np.linalg.inv(forward), dtype=float)
+                if tracker is not None:
+                    pose, extra_ms, extra_match_ms, located, map_points = tracker.place(frame, taken, prev_frame, prev_cache, poses[-1])
+                    velocity = np.linalg.inv(poses[-1]) @ pose
+                else:
+                    length = scale.step(step, taken.choice == prev_choice, prev_frame, frame)
+                    forward = np.eye(4)  # camera k-1 → camera k
+                    forward[:3, :3] = step.R
+                    forward[:3, 3] = length * step.t
+                    velocity = np.asarray(np.linalg.inv(forward), dtype=float)
+                    pose = poses[-1] @ velocity
             else:
                 scale.reset()
-            pose = poses[-1] @ velocity
+                pose = poses[-1] @ velocity
+                if tracker is not None:
+                    tracker.anchor(i, pose)
         shown_try = taken or tries[0]
         poses.append(pose)
         stamps.append(frame.timestamp)
         records.append(
             FrameRecord(
                 i, frame.timestamp, shown_try.choice.extractor, registry.resolve(shown_try.choice.extractor, shown_try.choice.params),
-                len(shown_try.feats), shown_try.matches, shown_try.inliers, sum(t.extraction_ms for t in tries),
-                sum(t.matching_ms for t in tries), taken is None, reason, shown_try.metrics, estimate, errors,
+                len(shown_try.feats), shown_try.matches, shown_try.inliers, sum(t.extraction_ms for t in tries) + extra_ms,
+                sum(t.matching_ms for t in tries) + extra_match_ms, taken is None, reason, shown_try.metrics, estimate, errors,
                 shown_try.step.parallax_px if shown_try.step is not None else 0.0, len(tries),
-                verdict.as_dict() if verdict is not None else None,
+                verdict.as_dict() if verdict is not None else None, located, map_points,
             )
         )
         accepted = taken or tries[0]
         prev = (frame, accepted.choice, {t.choice.key: t.feats for t in tries})
-    return VOResult(np.array(poses).reshape(-1, 4, 4), np.array(stamps), records, p.max_lost_fraction, shape[1], shape[0])
-
-
-@dataclass
-class _Step:
-    R: np.ndarray
-    t: np.ndarray  # unit
-    query: np.ndarray  # inlier keypoint indices in frame k-1
-    train: np.ndarray  # inlier keypoint indices in frame k
-    p1: np.ndarray
-    p2: np.ndarray
-    parallax_px: float
-
-
-@dataclass
-class _Try:
-    """One candidate tried on a frame pair."""
-
-    choice: Choice
-    feats: Features
-    step: _Step | None = None
-    matches: int = 0
-    inliers: int = 0
-    extraction_ms: float = 0.0
-    matching_ms: float = 0.0
-    reason: str = ""  # why the geometry lost it, or why a front-end check rejected it
-    metrics: dict[str, float] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        if not self.extraction_ms:
-            self.extraction_ms = self.feats.elapsed_ms
-
-    def evidence(self) -> PairEvidence:
-        s = self.step
-        return PairEvidence.of(
-            self.choice.extractor, self.choice.params, s.R if s is not None else None, s.t if s is not None else None,
-            keypoints=len(self.feats), matches=self.matches, inliers=self.inliers,
-            parallax_px=s.parallax_px if s is not None else 0.0, extraction_ms=self.extraction_ms, rejected=self.reason,
-        )
-
-
-def _try_pair(
-    choice: Choice, frame: Frame, prev_frame: Frame, prev_cache: dict[str, Features], seq: Sequence, K: np.ndarray,
-    p: VOParams, registry: Extractors, measure: Measure | None,
-) -> _Try:
-    """Extract frame k with ``choice`` (and frame k−1, unless it was extracted with it), match, estimate."""
-    feats = registry.extract(choice.extractor, frame.image, choice.params)
-    ms = feats.elapsed_ms
-    prev_feats = prev_cache.get(choice.key)
-    if prev_feats is None:
-        prev_feats = prev_cache[choice.key] = registry.extract(choice.extractor, prev_frame.image, choice.params)
-        ms += prev_feats.elapsed_ms
-    t = _Try(choice, feats, extraction_ms=ms)
-    if measure is not None:
-        t.metrics = dict(measure(feats, frame.image, (prev_feats, prev_frame.image)))
-    t.step, t.matches, t.inliers, t.matching_ms, t.reason = _step(prev_feats, feats, seq, K, p)
-    return t
-
-
-def _step(a: Features, b: Features, seq: Sequence, K: np.ndarray, p: VOParams) -> tuple[_Step | None, int, int, float, str]:
-    """The relative motion of one frame pair (or None and why), with match/inlier counts and matching time."""
-    if len(a) < p.min_keypoints or len(b) < p.min_keypoints:
-        return None, 0, 0, 0.0, f"too few keypoints ({len(a)}, {len(b)})"
-    m = match(a, b, p.ratio)
-    n = len(m.query)
-    if n < p.min_matches:
-        return None, n, 0, m.elapsed_ms, f"too few matches ({n} < {p.min_matches})"
-    if p.seed is not None:
-        order = np.random.default_rng((p.seed, len(a), len(b), n)).permutation(n)
-        m = type(m)(m.query[order], m.train[order], m.elapsed_ms)
-    p1 = undistort(a.xy[m.query], seq.intrinsics)
-    p2 = undistort(b.xy[m.train], seq.intrinsics)
-    rel = relative_pose(p1, p2, K, threshold_px=p.ransac_threshold_px)
-    if rel is None:
-        return None, n, 0, m.elapsed_ms, "no essential matrix"
-    k = int(rel.inliers.sum())
-    if k < p.min_inliers:
-        return None, n, k, m.elapsed_ms, f"too few inliers ({k} < {p.min_inliers})"
-    inl = rel.inliers
-    step = _Step(rel.R, rel.t, m.query[inl], m.train[inl], p1[inl], p2[inl], rel.parallax_px)
-    return step, n, k, m.elapsed_ms, ""
-
-
-class _Scale:
-    """The length of each step in the run's one scale (module docstring, "Scale")."""
-
-    def __init__(self, p: VOParams, K: np.ndarray) -> None:
-        self.p = p
-        self.K = K
-        self.length = 1.0
-        self.points: dict[int, float] = {}  # keypoint index in the last frame -> distance from that camera
-
-    def reset(self) -> None:
-        self.points = {}
-
-    def step(self, s: _Step, same_features: bool, fa: Frame, fb: Frame) -> float:
-        p = self.p
-        if s.parallax_px < p.still_px:
-            self.points = {}
-            return 0.0
-        if p.scale == "gt" and fa.pose is not None and fb.pose is not None:
-            return float(np.linalg.norm(fb.pose[:3, 3] - fa.pose[:3, 3]))
-        if p.scale == "unit":
-            return 1.0
-        X2, ok = triangulate(s.p1, s.p2, self.K, s.R, s.t)
-        X1 = (X2 - s.t.reshape(1, 3)) @ s.R  # the same points in camera k-1
-        d1 = np.linalg.norm(X1, axis=1)
-        if same_features and self.points:
-            ratios = [self.points[int(q)] / d for q, d, o in zip(s.query, d1, ok, strict=True) if o and int(q) in self.points and d > 0]
-            if len(ratios) >= p.min_scale_points:
-                r = float(np.median(ratios))
-                self.length = float(np.clip(r, self.length / p.max_scale_change, self.length * p.max_scale_change))
-        d2 = np.linalg.norm(X2, axis=1) * self.length
-        self.points = {int(t): float(d) for t, d, o in zip(s.train, d2, ok, strict=True) if o}
-        return self.length
+    out = np.array(poses).reshape(-1, 4, 4)
+    if tracker is not None:
+        out = tracker.trajectory([r.index for r in records], out)
+    return VOResult(out, np.array(stamps), records, p.max_lost_fraction, shape[1], shape[0])

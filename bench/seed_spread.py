@@ -1,0 +1,121 @@
+"""Seed spread of the VO's monocular ATE: std/mean over runs that differ only by the RANSAC seed.
+
+    python bench/seed_spread.py [--code CHECKOUT] [--scale map|triangulated|...] [--sequences 00,01,07]
+        [--configs SIFT,ORB_GRID] [--runs 10] [--frames N] [--jobs 16] [--out spread.json]
+
+For each KITTI sequence and configuration (the extractor's defaults) it runs ``run_vo`` ``--runs`` times with
+``VOParams(seed=r)``, r = 0 … runs−1, no front-end checks, over the whole shared sequence (or its first ``--frames``),
+and reports per cell the Sim(3) ATE RMSE of each run, their mean, std and spread = std/mean (population std), and
+the lost pairs. ``--code`` is the checkout whose ``nfex_core`` and ``nfex_slam`` run (default: this one), so the
+same script measures another implementation, e.g. main's; ``--scale`` is passed to ``VOParams`` only when given
+(a checkout without the option keeps its own default). Runs of one cell share one worker process and its
+extraction cache: identical images and configuration give identical features, so only the first run extracts.
+``--jobs`` cells run at once (a process pool; each worker imports from ``--code``).
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from concurrent.futures import ProcessPoolExecutor
+from multiprocessing import get_context
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _use(code: str) -> None:
+    """Import nfex_core and nfex_slam from checkout ``code`` in this (fresh, spawned) process."""
+    for p in (code, os.path.join(code, "clients", "slam")):
+        sys.path.insert(0, p)
+
+
+class _Cached:
+    """The registry's extract and resolve, with extraction memoised on (extractor, params, image bytes)."""
+
+    def __init__(self, registry: Any) -> None:
+        self.registry, self.cache = registry, {}  # type: ignore[var-annotated]
+
+    def extract(self, name: str, image: Any, params: Any = None) -> Any:
+        key = (name, json.dumps(params or {}, sort_keys=True, default=str), image.shape,
+               hashlib.blake2b(image.tobytes(), digest_size=16).hexdigest())
+        if key not in self.cache:
+            self.cache[key] = self.registry.extract(name, image, params)
+        return self.cache[key]
+
+    def resolve(self, name: str, params: Any = None) -> Any:
+        return self.registry.resolve(name, params)
+
+
+def cell(code: str, data: str, sequence: str, extractor: str, runs: int, frames: int | None, scale: str | None) -> dict[str, Any]:
+    """Every run of one (sequence, configuration) cell in this process."""
+    _use(code)
+    import numpy as np
+    from nfex_slam.datasets import ArraySequence, open_sequence
+    from nfex_slam.vo import VOParams, fixed, run_vo, window_errors
+
+    from nfex_core.knowledge import open_graph
+    from nfex_core.vision.registry import ExtractorRegistry
+
+    registry = _Cached(ExtractorRegistry.from_vocabulary(open_graph(tempfile.mkdtemp(prefix="nfex-spread-")).vocabulary()))
+    seq = open_sequence(data, "kitti", sequence)
+    n = len(seq) if frames is None else min(frames, len(seq))
+    loaded = [seq[i] for i in range(n)]  # decode once for every run
+    assert seq.poses is not None
+    mem = ArraySequence(seq.dataset, seq.name, seq.intrinsics, [f.image for f in loaded], seq.timestamps[:n], seq.poses[:n],
+                        seq.context)
+    out: list[dict[str, Any]] = []
+    for r in range(runs):
+        t0 = time.perf_counter()
+        params = VOParams(seed=r) if scale is None else VOParams(seed=r, scale=scale)
+        res = run_vo(mem, fixed(extractor), registry=registry, params=params)
+        ate = window_errors(mem, res)[0]
+        out.append({"seed": r, "ate": ate, "lost": res.lost_count, "failed": res.failed, "s": time.perf_counter() - t0})
+    ates = np.array([o["ate"] for o in out if o["ate"] is not None], float)
+    mean = float(ates.mean()) if len(ates) else None
+    std = float(ates.std()) if len(ates) else None
+    return {"sequence": sequence, "config": f"{extractor.lower()}-default", "frames": n, "runs": out, "mean": mean,
+            "std": std, "spread": std / mean if mean else None, "undefined": runs - len(ates)}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--code", default=str(ROOT), help="checkout whose nfex_core and nfex_slam run (default: this one)")
+    ap.add_argument("--data", default=None, help="KITTI folder (default: $NFEX_DATA/kitti, else ../shared/data/kitti)")
+    ap.add_argument("--sequences", default="00,01,07")
+    ap.add_argument("--configs", default="SIFT,ORB_GRID", help="extractors, run with their default parameters")
+    ap.add_argument("--runs", type=int, default=10)
+    ap.add_argument("--frames", type=int, default=None)
+    ap.add_argument("--scale", default=None, help="VOParams.scale (default: the checkout's own default)")
+    ap.add_argument("--jobs", type=int, default=1)
+    ap.add_argument("--out", default=None, help="write the cells as JSON here")
+    args = ap.parse_args()
+    code = str(Path(args.code).resolve())
+    data = args.data or str(Path(os.environ.get("NFEX_DATA", ROOT.parent / "shared" / "data")) / "kitti")
+    cells = [(s, x) for s in args.sequences.split(",") for x in args.configs.split(",")]
+    with ProcessPoolExecutor(max_workers=args.jobs, mp_context=get_context("spawn")) as pool:
+        futures = [pool.submit(cell, code, data, s, x, args.runs, args.frames, args.scale) for s, x in cells]
+        results = [f.result() for f in futures]
+    try:
+        rev = subprocess.run(["git", "-C", code, "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
+    except OSError:
+        rev = ""
+    print(f"code {code} ({rev}), scale {args.scale or 'default'}, {args.runs} runs per cell, no front-end checks")
+    print(f"{'sequence':9} {'config':18} {'frames':>6} {'mean ATE':>9} {'std':>7} {'spread':>7} {'lost':>5}")
+    for c in results:
+        lost = sum(r["lost"] for r in c["runs"])
+        fmt = (lambda v: f"{v:.3f}" if v is not None else "-")  # noqa: E731
+        print(f"{c['sequence']:9} {c['config']:18} {c['frames']:6d} {fmt(c['mean']):>9} {fmt(c['std']):>7} {fmt(c['spread']):>7} {lost:5d}")
+    if args.out:
+        Path(args.out).write_text(json.dumps({"code": code, "revision": rev, "scale": args.scale, "runs": args.runs,
+                                              "cells": results}, indent=1))
+
+
+if __name__ == "__main__":
+    main()

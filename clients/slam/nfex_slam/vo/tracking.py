@@ -1,0 +1,231 @@
+"""How the VO with a local map (``VOParams.scale = "map"``) places an accepted frame (``localmap`` has the map).
+
+For an accepted pair (frame k−1, frame k) whose two-view estimate passed the checks and the judge:
+
+1. With no map yet, frame k−1 becomes its first keyframe (its pose is known: the identity at the start).
+2. Where the pair's configuration is not the map's, the last two keyframes are re-extracted with it and their
+   matches triangulated at their known poses (``LocalMap.switch``); the extractions count in frame k's cost.
+3. Frame k is matched against the last keyframe (the pair's own matches where frame k−1 is that keyframe) and
+   located by PnP + RANSAC on the map points among the matches; with too few, the essential matrix's R and unit t
+   scaled by the last step's length place it (t = 0 where the pair did not move).
+4. A frame that moved becomes a keyframe: its matches extend the map's points and tracks, tracks with parallax
+   enough are triangulated, and the window is bundle-adjusted (``bundle.adjust``).
+
+Every frame is anchored to the last keyframe at the time it was placed (T_kf⁻¹ · T_k); ``trajectory`` gives each
+frame its keyframe's refined pose times that anchor, so frames between keyframes (still, or coasted on the motion
+prior) follow their keyframe's refinement.
+"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import cv2
+import numpy as np
+
+from ..datasets.base import Frame, Sequence
+from ..features import Features
+from .geometry import match, triangulate, undistort
+from .localmap import Keyframe, LocalMap, keypoint_sigma
+
+if TYPE_CHECKING:
+    from .pipeline import Choice, Extractors, VOParams
+    from .twoview import Step, Try
+
+
+class MapTracker:
+    def __init__(self, seq: Sequence, p: VOParams, registry: Extractors) -> None:
+        self.seq, self.p, self.registry = seq, p, registry
+        self.map = LocalMap(seq.intrinsics.K, window=p.window, fixed=p.window_fixed, min_angle_deg=p.min_angle_deg,
+                            ba_iterations=p.ba_iterations)
+        self.length = 1.0  # the last step's length in the map's scale: the essential matrix's fallback
+        self.anchors: dict[int, tuple[int, np.ndarray]] = {}  # frame index → (keyframe id, T_kf⁻¹ · T_k)
+        self.start: Keyframe | None = None  # the frame the map will start from, with no map yet
+
+    def place(self, frame: Frame, taken: Try, prev: Frame, prev_cache: dict[str, Features],
+              prev_pose: np.ndarray) -> tuple[np.ndarray, float, float, str, int]:
+        """Frame k's camera-to-world pose, the extraction and matching ms it added, how it was located
+        ("pnp" | "essential") and its PnP inliers."""
+        step = taken.step
+        assert step is not None
+        p, key = self.p, taken.choice.key
+        extra_ms = match_ms = 0.0
+        if self.map.last is None:
+            return self._start(frame, taken, prev, prev_cache, prev_pose)
+        if self.map.last.key != key:
+            extra_ms, match_ms = self._switch(taken.choice, prev, prev_cache)
+        ref = self.map.last
+        assert ref is not None
+        if ref.id == prev.index:
+            q, t = step.matches
+        else:
+            q, t, ms = self._match(ref.feats, taken.feats)
+            match_ms += ms
+        xy = self._xy(taken.feats)
+        seen = self.map.correspondences(ref, q, t)
+        moved = step.parallax_px >= p.still_px
+        located = self._gate(self.map.locate(xy, seen, min_points=p.min_map_points, min_inliers=p.min_inliers), prev_pose, moved)
+        if located is not None:
+            T = located[0]
+        else:
+            R, unit = self._essential(prev_cache[key], taken.feats, step)
+            forward = np.eye(4)  # camera k-1 → camera k
+            forward[:3, :3] = R
+            forward[:3, 3] = (self.length if moved else 0.0) * unit
+            T = prev_pose @ np.linalg.inv(forward)
+        # the window's points projected where the first pose puts them find the keypoints the matches missed
+        found = self.map.search(T, key, taken.feats, xy, radius=p.search_radius_px, ratio=p.ratio,
+                                taken=set(located[1]) if located is not None else set())
+        both = {**found, **(located[1] if located is not None else {})}
+        again = self._gate(self.map.locate(xy, both, min_points=p.min_map_points, min_inliers=p.min_inliers), prev_pose, moved)
+        if again is not None:
+            T, located = again[0], again
+        how = "pnp" if located is not None else "essential"
+        inliers = len(located[1]) if located is not None else 0
+        if moved:
+            kf = Keyframe(frame.index, T, key, taken.feats, xy, frame.image, keypoint_sigma(taken.feats))
+            self.map.add(kf)
+            if located is not None:
+                self.map.observe(kf, located[1])
+            self.map.associate(ref, kf, q, t)
+            self.map.refine()
+            self.map.forget(p.window + 2)
+            T = kf.T_wc
+            self.length = max(float(np.linalg.norm(T[:3, 3] - prev_pose[:3, 3])), 1e-9)
+        self.anchor(frame.index, T)
+        return T, extra_ms, match_ms, how, inliers
+
+    def anchor(self, index: int, T: np.ndarray) -> None:
+        """Tie frame ``index``'s pose T to the last keyframe (a lost frame's too, coasting from it)."""
+        kf = self.map.last
+        if kf is not None:
+            self.anchors[index] = (kf.id, np.linalg.inv(kf.T_wc) @ T)
+
+    def trajectory(self, indices: list[int], poses: np.ndarray) -> np.ndarray:
+        """The run's poses with every anchored frame moved with its keyframe's refinement."""
+        out = poses.copy()
+        for n, i in enumerate(indices):
+            if i in self.anchors:
+                kf, rel = self.anchors[i]
+                out[n] = self.map.poses[kf] @ rel
+        return out
+
+    def _start(self, frame: Frame, taken: Try, prev: Frame, prev_cache: dict[str, Features],
+               prev_pose: np.ndarray) -> tuple[np.ndarray, float, float, str, int]:
+        """With no map yet: place frame k by the pair's essential matrix, and start the map from the first frame of
+        the run's configuration (the start) and frame k once at least ``start_points`` of their matches triangulate
+        with ``start_angle_deg`` between their rays — ORB-SLAM's monocular initialisation (Mur-Artal et al. 2015, §IV:
+        50 points, 1°) keeps its reference frame until a frame has such parallax with it — or until fewer than twice
+        that many matches are left with it, when the frame becomes the start; a pair that mostly turned has no such
+        parallax, and a map started on it is distorted."""
+        step = taken.step
+        assert step is not None
+        p, key = self.p, taken.choice.key
+        moved = step.parallax_px >= p.still_px
+        xy = self._xy(taken.feats)
+        pair = self._two_view(self._xy(prev_cache[key]), xy, *step.matches)
+        R, unit = (pair[0], pair[1]) if pair is not None else (step.R, step.t)
+        forward = np.eye(4)  # camera k-1 → camera k
+        forward[:3, :3] = R
+        forward[:3, 3] = (self.length if moved else 0.0) * unit
+        T = prev_pose @ np.linalg.inv(forward)
+        if self.start is None or self.start.key != key:
+            feats = prev_cache[key]
+            self.start = Keyframe(prev.index, prev_pose, key, feats, self._xy(feats), prev.image, keypoint_sigma(feats))
+        s, match_ms = self.start, 0.0
+        if s.id == prev.index:
+            q, t = step.matches
+        else:
+            q, t, match_ms = self._match(s.feats, taken.feats)
+            pair = self._two_view(s.xy, xy, q, t)
+        if len(q) < 2 * p.start_points:  # too few matches left with the start (ORB-SLAM: 100): frame k starts again
+            self.start = Keyframe(frame.index, T, key, taken.feats, xy, frame.image, keypoint_sigma(taken.feats))
+            return T, 0.0, match_ms, "essential", 0
+        if not moved or pair is None or self._parallax_points(s.xy[q[pair[2]]], xy[t[pair[2]]], pair[0], pair[1]) < p.start_points:
+            return T, 0.0, match_ms, "essential", 0
+        length = max(float(np.linalg.norm(T[:3, 3] - s.T_wc[:3, 3])), 1e-9)
+        forward[:3, :3], forward[:3, 3] = pair[0], length * pair[1]
+        T = s.T_wc @ np.linalg.inv(forward)
+        kf = Keyframe(frame.index, T, key, taken.feats, xy, frame.image, keypoint_sigma(taken.feats))
+        self.map.add(s)
+        self.anchors[s.id] = (s.id, np.eye(4))
+        self.map.add(kf)
+        self.map.associate(s, kf, q, t)
+        self.length = max(float(np.linalg.norm(T[:3, 3] - prev_pose[:3, 3])), 1e-9)
+        self.start = None
+        self.anchor(frame.index, T)
+        return T, 0.0, match_ms, "essential", 0
+
+    def _parallax_points(self, x0: np.ndarray, x1: np.ndarray, R: np.ndarray, t: np.ndarray) -> int:
+        """How many correspondences triangulate in front of both cameras ([I|0], [R|t]) with rays ``start_angle_deg``
+        apart."""
+        if not len(x0):
+            return 0
+        X, ok = triangulate(x0, x1, self.seq.intrinsics.K, R, t)
+        Kinv = np.linalg.inv(self.seq.intrinsics.K)
+        r0 = np.c_[x0, np.ones(len(x0))] @ Kinv.T
+        r1 = (np.c_[x1, np.ones(len(x1))] @ Kinv.T) @ R  # camera k's rays in camera k−1's frame (Rᵀ r)
+        cos = np.einsum("ij,ij->i", r0, r1) / (np.linalg.norm(r0, axis=1) * np.linalg.norm(r1, axis=1))
+        return int((ok & (cos < np.cos(np.radians(self.p.start_angle_deg)))).sum())
+
+    def _two_view(self, xa: np.ndarray, xb: np.ndarray, q: np.ndarray,
+                  t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """R, unit t and the inlier mask of matches (q, t) between undistorted keypoints ``xa`` and ``xb`` by MAGSAC++
+        (Barath et al. 2020; ``cv2.USAC_MAGSAC``) and ``recoverPose``; None where it finds no model. The map starts
+        and falls back on it: RANSAC's draw among near-equal models of one pair is what made two-view runs spread."""
+        if len(q) < 5:
+            return None
+        p1, p2 = xa[q], xb[t]
+        K = self.seq.intrinsics.K
+        E, mask = cv2.findEssentialMat(p1, p2, K, method=cv2.USAC_MAGSAC, prob=0.999, threshold=self.p.ransac_threshold_px)
+        if E is None or mask is None or E.shape != (3, 3):
+            return None
+        _, R, tt, pose_mask, _ = cv2.recoverPose(E, p1, p2, K, distanceThresh=1e6, mask=mask.copy())
+        return R, tt.ravel() / max(float(np.linalg.norm(tt)), 1e-12), pose_mask.ravel().astype(bool)
+
+    def _gate(self, located: tuple[np.ndarray, dict[int, int]] | None, prev_pose: np.ndarray,
+              moved: bool) -> tuple[np.ndarray, dict[int, int]] | None:
+        """A PnP pose whose step from frame k−1 changes the last step's length by more than ``max_scale_change`` (the
+        bound the two-view chain puts on a step, against a bad triangulation) is no pose: PnP on points that mostly lie
+        far, or along one line of sight, can agree with a wrong translation."""
+        if located is None or not moved:
+            return located
+        step = float(np.linalg.norm(located[0][:3, 3] - prev_pose[:3, 3]))
+        bound = self.p.max_scale_change
+        return located if self.length / bound <= step <= self.length * bound else None
+
+    def _essential(self, a: Features, b: Features, step: Step) -> tuple[np.ndarray, np.ndarray]:
+        """R and unit t of the pair re-estimated by ``_two_view``, or the pair's own estimate where that finds none."""
+        pair = self._two_view(self._xy(a), self._xy(b), *step.matches)
+        return (pair[0], pair[1]) if pair is not None else (step.R, step.t)
+
+    def _xy(self, feats: Features) -> np.ndarray:
+        return undistort(feats.xy, self.seq.intrinsics) if len(feats) else np.zeros((0, 2))
+
+    def _match(self, a: Features, b: Features) -> tuple[np.ndarray, np.ndarray, float]:
+        m = match(a, b, self.p.ratio)
+        q, t = m.query, m.train
+        if self.p.seed is not None and len(q):
+            order = np.random.default_rng((self.p.seed, len(a), len(b), len(q))).permutation(len(q))
+            q, t = q[order], t[order]
+        return q, t, m.elapsed_ms
+
+    def _switch(self, choice: Choice, prev: Frame, prev_cache: dict[str, Features]) -> tuple[float, float]:
+        """Re-extract the last two keyframes with ``choice`` and triangulate their matches at their poses."""
+        kfs = self.map.keyframes[-2:]
+        feats: list[Features] = []
+        ms = 0.0
+        for kf in kfs:
+            f = prev_cache.get(choice.key) if kf.id == prev.index else None
+            if f is None:
+                assert kf.image is not None
+                f = self.registry.extract(choice.extractor, kf.image, choice.params)
+                ms += f.elapsed_ms
+            feats.append(f)
+        if len(kfs) == 1:
+            kf = kfs[0]
+            kf.key, kf.feats, kf.xy, kf.sigma, kf.points, kf.tracks = choice.key, feats[0], self._xy(feats[0]), keypoint_sigma(feats[0]), {}, {}
+            self.map.tracks = {}
+            return ms, 0.0
+        q, t, match_ms = self._match(feats[0], feats[1])
+        self.map.switch(kfs[0], kfs[1], choice.key, feats[0], feats[1], self._xy(feats[0]), self._xy(feats[1]), q, t)
+        return ms, match_ms
