@@ -42,6 +42,8 @@ def evaluate(
     plots: Annotated[bool, typer.Option(help="Draw the plots.")] = True,
     json_out: Annotated[bool, typer.Option("--json", help="Print the result as JSON instead of the table.")] = False,
     progress: Annotated[bool, typer.Option(help="Show a progress bar.")] = True,
+    vo: Annotated[str, typer.Option("--vo", help="two-view: each step's length from the points the previous step "
+                  "triangulated; map: the local map with a sliding-window bundle adjustment (docs/vo.md).")] = "two-view",
 ) -> None:
     """Pose AUC and front-end ATE, then monocular ATE, with 95 % intervals over paired runs per method, paired tests
     against the best static method with the difference they could detect, lost and coasted pairs, per-segment and
@@ -83,7 +85,7 @@ def evaluate(
         conditions = list(split_values(corruption)) or ([] if schedule else ["none"])
         study = evaluate_sequences(seqs, kg, methods=chosen, runs=runs, corruptions=conditions, severity=severity,
                                    budgets=budget_ms, frames=frames, schedule=schedule, checks=checks, oracle=oracle,
-                                   progress=progress and not json_out)
+                                   progress=progress and not json_out, vo=vo)
     finally:
         kg.close()
     out.mkdir(parents=True, exist_ok=True)

@@ -155,6 +155,9 @@ class Evaluation:
         return best[2] if best is not None else None
 
 
+VO_SCALES = {"two-view": "triangulated", "map": "map"}  # nfex evaluate --vo → VOParams.scale
+
+
 def evaluate(
     sequence: Sequence,
     kg: KnowledgeGraph,
@@ -171,10 +174,17 @@ def evaluate(
     control: bool = True,
     progress: bool = False,
     session: bool = False,
+    vo: str = "two-view",
 ) -> Evaluation:
     """Run every method (and nFEX at each budget) on ``sequence`` under each condition, ``runs`` paired times;
     with ``control``, the motion-prior control beside them.
-    ``session``: nFEX decides as a service session does (methods.AdvisorChooser)."""
+    ``session``: nFEX decides as a service session does (methods.AdvisorChooser). ``vo``: ``two-view`` (each
+    step's length from the points the previous step also triangulated) or ``map`` (the local map with its window
+    bundle adjustment, docs/vo.md)."""
+    if vo not in VO_SCALES:
+        from ..errors import BadInput
+
+        raise BadInput(f"vo must be one of {', '.join(VO_SCALES)}, not {vo!r}")
     from ..advisor import Advisor
     from ..rules.engine import RuleEngine
     from ..vision.registry import ExtractorRegistry
@@ -200,7 +210,8 @@ def evaluate(
 
         bar = tqdm(total=len(conditions) * runs * (len(jobs) + n_oracle), desc=f"evaluate {seq.dataset}/{seq.name}",
                    unit="run")
-    trial = _Trial(registry, step_checks, seq, sched, _ExpectedCost(vocab, table), bar, max_coasted_fraction(view))
+    trial = _Trial(registry, step_checks, seq, sched, _ExpectedCost(vocab, table), bar, max_coasted_fraction(view),
+                   VO_SCALES[vo])
     context = {k: v for k, v in seq.context.items() if v}
     for condition in conditions:
         for r in range(runs):
@@ -237,9 +248,10 @@ class _Trial:
     """Runs methods on the variant of one condition and run, and keeps their records."""
 
     def __init__(self, registry: Any, checks: StepChecks, seq: Sequence, sched: Schedule | None,
-                 expected: _ExpectedCost, bar: Any, max_coasted: float | None) -> None:
+                 expected: _ExpectedCost, bar: Any, max_coasted: float | None, scale: str = "triangulated") -> None:
         self.registry, self.checks, self.seq, self.sched, self.expected, self.bar = registry, checks, seq, sched, expected, bar
         self.max_coasted = max_coasted
+        self.scale = scale
         self.records: list[RunRecord] = []
         self.condition, self.run, self.variant = "none", 0, seq
 
@@ -248,7 +260,8 @@ class _Trial:
 
     def measure(self, method: str, chooser: Any, note: str, budget: float | None) -> RunRecord:
         t0 = time.perf_counter()
-        res = run_vo(self.variant, chooser, registry=self.registry, params=VOParams(seed=self.run), checks=self.checks)
+        res = run_vo(self.variant, chooser, registry=self.registry, params=VOParams(seed=self.run, scale=self.scale),
+                     checks=self.checks)
         if isinstance(chooser, DynChooser):
             note = "; ".join(sorted(chooser.notes))
         rec = _record(method, self.condition, self.run, budget, res, self.seq, self.sched, self.expected,

@@ -31,6 +31,14 @@ def test_nfex_evaluate_unknown_method_exits_2(cli_env: dict[str, str], data_dir:
     assert r.returncode == 2 and "orb-default" in r.stderr
 
 
+def test_nfex_evaluate_with_the_local_map(cli_env: dict[str, str], data_dir: Path, tmp_path: Path) -> None:
+    r = run_cli(["evaluate", str(data_dir / "kitti"), "--sequence", "01", "--vo", "bundle"], cli_env)
+    assert r.returncode == 2 and "two-view, map" in r.stderr
+    r = run_cli(["evaluate", str(data_dir / "kitti"), "--sequence", "01", "--vo", "map", "-m", "sift-default", "--runs", "1",
+                 "--frames", "16", "--no-plots", "--json", "--out", str(tmp_path / "map")], cli_env)
+    assert r.returncode == 0, r.stderr
+
+
 @pytest.mark.slow
 def test_nfex_evaluate_xfeat_default_runs_and_without_weights_exits_2(cli_env: dict[str, str], data_dir: Path,
                                                                        tmp_path: Path) -> None:

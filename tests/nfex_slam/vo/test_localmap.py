@@ -84,7 +84,7 @@ class _Counted:
 
 def test_frames_are_located_on_the_map_and_keep_the_first_steps_scale(kitti00: Sequence, registry: ExtractorRegistry) -> None:
     seq = _window(kitti00, 12)
-    res = run_vo(seq, fixed("ORB"), registry=registry)
+    res = run_vo(seq, fixed("ORB"), registry=registry, params=VOParams(scale="map"))
     assert res.lost_count == 0
     assert sum(f.located == "pnp" for f in res.frames) >= 8 and all(f.map_points >= 10 for f in res.frames if f.located == "pnp")
     steps = np.linalg.norm(np.diff(res.poses[:, :3, 3], axis=0), axis=1)
@@ -101,7 +101,7 @@ def test_a_switch_re_extracts_the_last_two_keyframes(kitti00: Sequence, registry
     def switch_at_5(frame, history):  # type: ignore[no-untyped-def]
         return Choice("SIFT") if frame.index >= 5 else Choice("ORB")
 
-    res = run_vo(seq, switch_at_5, registry=counted)
+    res = run_vo(seq, switch_at_5, registry=counted, params=VOParams(scale="map"))
     images = [id(seq[i].image) for i in range(8)]
     extracted = [images.index(c) for c in counted.calls]
     # frames 0-4 once each; at frame 5: frame 5, frame 4 (the pair's comparable descriptors) and keyframe 3
@@ -117,12 +117,12 @@ def test_alternating_two_equally_good_configurations_keeps_the_ate_of_either(kit
     seq = _window(kitti00, 20)
     counted = _Counted(registry)
     a, b = Choice("SIFT", {"nfeatures": 1500}), Choice("SIFT", {"nfeatures": 2000})
-    alone = [window_errors(seq, run_vo(seq, lambda f, h, c=c: c, registry=counted, params=VOParams(seed=0)))[0] for c in (a, b)]
+    alone = [window_errors(seq, run_vo(seq, lambda f, h, c=c: c, registry=counted, params=VOParams(seed=0, scale="map")))[0] for c in (a, b)]
 
     def alternate(frame, history):  # type: ignore[no-untyped-def]
         return a if (frame.index // 5) % 2 == 0 else b
 
-    res = run_vo(seq, alternate, registry=counted, params=VOParams(seed=0))
+    res = run_vo(seq, alternate, registry=counted, params=VOParams(seed=0, scale="map"))
     assert res.lost_count == 0
     assert {f.params.get("nfeatures") for f in res.frames} == {1500, 2000}
     both = window_errors(seq, res)[0]

@@ -58,7 +58,7 @@ def test_the_extractor_may_change_every_frame(kitti00: Sequence, registry: Extra
 
 def test_tracking_loss_is_counted_and_recovered_from(kitti00: Sequence, registry: ExtractorRegistry) -> None:
     seq = _copy(kitti00, 9, blank=(4,))
-    res = run_vo(seq, fixed("ORB"), registry=registry)
+    res = run_vo(seq, fixed("ORB"), registry=registry, params=VOParams(scale="map"))
     # frame 4 has no features; frame 5 is matched against the blank frame 4: both lost, never an exception
     assert res.lost == [4, 5]
     assert "keypoints" in res.frames[4].reason

@@ -12,7 +12,7 @@ For each frame k (DESIGN.md, "Evaluation"; the paper's §V runs its extractors i
    ``FrameRecord.estimate`` keeps, whichever way the trajectory is then scaled;
 4. the accepted pair places frame k.
 
-Placing it, ``scale="map"`` (default; ``tracking``, ``localmap``, ``bundle``): frame k is located against a local
+Placing it, ``scale="map"`` (``tracking``, ``localmap``, ``bundle``; ``nfex evaluate --vo map``): frame k is located against a local
 map of points triangulated from two or more keyframes — PnP + RANSAC where enough map points are seen, the
 essential matrix scaled by the last step's length otherwise — and a frame that moved becomes a keyframe, after
 which a sliding-window bundle adjustment (GTSAM) refines the last keyframes and their points, its oldest held so
@@ -20,7 +20,7 @@ that the map keeps its scale. A change of configuration re-extracts the last two
 triangulates their matches at their known poses: a switch costs those extractions, not the trajectory's scale.
 The returned poses are the refined ones (a frame between keyframes moves with its keyframe).
 
-The two-view VO (``twoview.ScaleChain``) chains T_w,k = T_w,k−1 · T_k←k−1⁻¹ with T_k←k−1 = [R | s·t]:
+The two-view VO (``twoview.ScaleChain``, the default while the map still drifts in some turns: docs/vo.md) chains T_w,k = T_w,k−1 · T_k←k−1⁻¹ with T_k←k−1 = [R | s·t]:
 ``scale="triangulated"`` takes s from the points the previous step also triangulated (only while the
 configuration is unchanged, so a switch restarts it at constant speed), ``"unit"`` takes s = 1, and ``"gt"`` each
 step's length from the ground truth — a diagnostic that isolates rotation and direction errors. Either way a step
@@ -81,7 +81,7 @@ class VOParams:
     min_inliers: int = 10
     ransac_threshold_px: float = 1.0
     still_px: float = STILL_PX  # median inlier parallax below which a step has no translation
-    scale: str = "map"  # "map" (the local map) | two-view: "triangulated" | "unit" | "gt"
+    scale: str = "triangulated"  # two-view: "triangulated" | "unit" | "gt"; "map": the local map (docs/vo.md)
     min_scale_points: int = 8
     max_scale_change: float = 2.0  # per step, against a bad triangulation
     max_lost_fraction: float = 0.3
