@@ -41,6 +41,7 @@ TEST_ENV = {
     "NFEX_MAX_DECODED_BYTES": "4000000",
     "NFEX_BODY_TIMEOUT_S": "3",
     "NFEX_MAX_SESSIONS": "16",
+    "NFEX_MAX_SESSIONS_PER_CLIENT": "16",  # every test's sessions come from one address
 }
 
 

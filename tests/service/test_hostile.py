@@ -20,7 +20,7 @@ import pytest
 from tests.conftest import start_sparql_server, stop_process
 from tests.service.conftest import EDITOR, REPORTER, Service, assert_problem, auth, start_service
 
-LIMITS = {"NFEX_MAX_SESSIONS_PER_CLIENT": "2"}  # the suite's shared services hold every test's sessions: 16
+LIMITS = {"NFEX_MAX_SESSIONS_PER_CLIENT": "2"}  # the suite's shared services allow every test's sessions: 16
 
 
 @pytest.fixture(scope="module", params=["embedded", "oxigraph"])
