@@ -137,7 +137,7 @@ def _flow(text: str, start: str) -> tuple[str, ...]:
 
 def test_the_flow_pictures_name_the_advisor_pipeline_stages() -> None:
     """README's flow, docs/architecture.md's diagram, the advisor's stage tuple and so the timings_ms keys agree."""
-    from nfex_core.advisor.stages import STAGES
+    from nfex_core.advisor.pipeline import STAGES
 
     assert _flow((REPO / "README.md").read_text(), "frame + context\n") == STAGES
     assert _flow((REPO / "docs" / "architecture.md").read_text(), "frame + context ─►") == STAGES

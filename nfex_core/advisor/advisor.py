@@ -15,7 +15,7 @@
                     ─► answer        Selection {α*, Θ′, scores, pruned + reasons, context, versions, timings}
                                                                                                (selection.py)
 
-Each stage is a function from a typed input record to a typed output record (stages.py: ``PIPELINE``);
+Each stage is a function from a typed input record to a typed output record (stages.py), run in order by ``PIPELINE`` (pipeline.py);
 ``select`` runs them in order and times each under its name.
 
 It holds a snapshot — graph version, vocabulary, compiled rule table, extractor registry — and rebuilds
@@ -42,11 +42,12 @@ from ..kg.vocab import Vocabulary
 from ..neural.serve import ModelHolder
 from ..rules.engine import RuleEngine, RuleTable
 from ..rules.persisted import CompiledCache, store_key
+from .pipeline import PIPELINE, Flow, Request
 from .reuse import ReuseTerms
 from .scoring import SCORE_PIXELS, FrameState, Scorer
 from .selection import Selection
 from .snapshots import Snapshots
-from .stages import PIPELINE, Flow, Memo, Request
+from .stages import Memo
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
@@ -184,7 +185,7 @@ class Advisor:
         session: bool = False,
         verdict_held: bool = True,
     ) -> Selection:
-        """The flow for one request: ``PIPELINE``'s stages in order (stages.py). ``budget_ms`` (per-frame extraction
+        """The flow for one request: ``PIPELINE``'s stages in order (pipeline.py). ``budget_ms`` (per-frame extraction
         time the client can afford) and ``compute`` (a compute class of the graph) may also come as context keys of
         those names; ``frame_size`` (W, H) sizes the cost check when no frame is sent. ``consistency``: ``snapshot``
         answers from the current snapshot (stale by at most the bound of snapshots.py in background mode),

@@ -1,22 +1,20 @@
-"""The flow as code: the advisor's stages, each a function from a typed input record to a typed output record.
+"""The advisor's stages, each a function from a typed input record (``…In``) to a typed output record.
 
-    conditions ─► symbolic ─► params ─► budget ─► scoring ─► verification ─► answer          (``STAGES``)
+    conditions ─► symbolic ─► params ─► budget ─► scoring ─► verification ─► answer
 
-``Advisor.select`` makes a ``Flow`` of one ``Request`` and runs ``PIPELINE`` in order: each ``Stage`` takes its
-input record from the request and the outputs before it (``take``), and its ``run`` returns its own output record,
-which the flow keeps under the stage's name; no stage changes another's output. The Selection's ``timings_ms`` are
-keyed by the stages' names (and ``total``, their sum).
+pipeline.py runs them in this order (``PIPELINE``) and builds each input record from the request and the outputs
+before it; a stage reads only its input record and returns a new output record, never changing another's.
 
 A session's decision that ``symbolic`` carries from an earlier frame (reuse.py) skips ``params``, ``budget`` and
-``verification`` (0 ms each): ``scoring`` then extracts α* alone and ``answer`` answers the carried Selection.
-Without a frame, ``params``, ``budget`` and the prior scores are computed once per context and snapshot
-(``Request.memo``), as are the escalations in ``verification``.
+``verification``: ``scoring`` then extracts α* alone and ``answer`` answers the carried Selection. Without a frame,
+``params``, ``budget`` and the prior scores are computed once per context and snapshot (the ``memo`` of their input
+records), as are the escalations in ``verification``.
 """
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Any, Generic, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -39,32 +37,6 @@ if TYPE_CHECKING:
 I = TypeVar("I")  # noqa: E741  (a stage's input record)
 O = TypeVar("O")  # noqa: E741  (a stage's output record)
 Memo = dict[tuple[Any, ...], Any]
-
-
-# ---------------------------------------------------------------- the request
-@dataclass(frozen=True)
-class Request:
-    """One call of ``Advisor.select``: the snapshot it answers from and what the caller sent."""
-
-    vocab: Vocabulary
-    table: RuleTable
-    version: int
-    programs: Mapping[str, int]
-    reuse: ReuseTerms
-    registry: Callable[[], Any]  # the snapshot's extractor registry (built on first use: it imports cv2)
-    memo: Memo  # the snapshot's per-context answers (what does not depend on a frame)
-    context: Mapping[str, Any]  # the client's context, without ``budget_ms`` and ``compute``
-    frame: np.ndarray | None
-    previous: FrameState | None
-    budget_ms: float | None
-    compute: str | None
-    frame_size: tuple[int, int] | None
-    neural: NeuralStep
-    scorer: Scorer
-    exhaustive: bool = False
-    session: bool = False
-    verdict_held: bool = True
-    staleness: tuple[int, float] = (0, 0.0)  # (the store's head version, how stale the snapshot is in ms)
 
 
 # ---------------------------------------------------------------- conditions
@@ -370,102 +342,6 @@ def answer(i: AnswerIn) -> Selection:
     if state is not None and i.symbolic.key is not None and stats is not None:  # what the next frames may reuse
         state = replace(state, decided=Decided(i.symbolic.key, dict(stats), sel, estimate=i.symbolic.estimate))
     return replace(sel, state=state)
-
-
-# ---------------------------------------------------------------- the pipeline
-@dataclass(frozen=True)
-class Flow:
-    """One request and the output of every stage that has run, under the stage's name."""
-
-    request: Request
-    conditions: Conditions | None = None
-    symbolic: Symbolic | None = None
-    params: Parameters | None = None
-    budget: Settled | None = None
-    scoring: Scored | None = None
-    verification: Verification | None = None
-    answer: Selection | None = None
-
-    @property
-    def carried(self) -> bool:
-        return self.symbolic is not None and self.symbolic.carried is not None
-
-
-@dataclass(frozen=True)
-class Stage(Generic[I, O]):
-    """A named stage: ``take`` reads its input record off the flow, ``run`` makes its output record.
-    ``on_reuse``: whether it runs when ``symbolic`` carries a decision from an earlier frame."""
-
-    name: str
-    take: Callable[[Flow], I]
-    run: Callable[[I], O]
-    on_reuse: bool = True
-
-    def __call__(self, flow: Flow) -> Flow:
-        out: dict[str, Any] = {self.name: self.run(self.take(flow))}
-        return replace(flow, **out)
-
-
-def _need(value: O | None) -> O:
-    assert value is not None, "a stage ran before the stage it reads"
-    return value
-
-
-def _take_conditions(f: Flow) -> ConditionsIn:
-    r = f.request
-    return ConditionsIn(r.vocab, r.context, r.frame, r.previous)
-
-
-def _take_symbolic(f: Flow) -> SymbolicIn:
-    r = f.request
-    return SymbolicIn(r.table, _need(f.conditions), r.budget_ms, r.compute, r.frame_size, r.reuse, r.version,
-                      r.neural.info.get("used"), r.previous.decided if r.previous is not None else None, r.session,
-                      r.verdict_held)
-
-
-def _take_params(f: Flow) -> ParamsIn:
-    r, cond, sym = f.request, _need(f.conditions), _need(f.symbolic)
-    pixels = int(cond.image.shape[0] * cond.image.shape[1]) if cond.image is not None else None
-    return ParamsIn(r.vocab, r.table, sym.decision, cond.values, sym.budget, r.neural, pixels, cond.stats,
-                    r.memo if cond.image is None else None)
-
-
-def _take_budget(f: Flow) -> BudgetIn:
-    r, sym = f.request, _need(f.symbolic)
-    return BudgetIn(r.table.cost, r.table.budget_terms, r.vocab.extractors, sym.decision, _need(f.params), sym.budget,
-                    r.memo if _need(f.conditions).image is None else None)
-
-
-def _take_scoring(f: Flow) -> ScoringIn:
-    r, cond, sym = f.request, _need(f.conditions), _need(f.symbolic)
-    candidates = _need(f.budget).candidates if sym.carried is None else {}
-    return ScoringIn(r.vocab, r.registry, sym.decision, candidates, r.neural, cond.image, r.previous, r.scorer,
-                     r.table.cost, r.exhaustive, r.memo if cond.image is None else None, sym.carried, r.session)
-
-
-def _take_verification(f: Flow) -> VerificationIn:
-    r, sym = f.request, _need(f.symbolic)
-    return VerificationIn(r.vocab, r.table, sym.decision, _need(f.conditions).values, sym.budget, r.neural, r.memo)
-
-
-def _take_answer(f: Flow) -> AnswerIn:
-    r, sym = f.request, _need(f.symbolic)
-    head, stale_ms = r.staleness
-    versions = {"graph": r.version, "graph_head": head, "stale_ms": stale_ms, "programs": r.programs,
-                "rules": len(r.table.rules), "model": r.neural.info}
-    return AnswerIn(r.vocab, sym.decision, _need(f.conditions), sym, f.budget, _need(f.scoring), f.verification, versions)
-
-
-PIPELINE: tuple[Stage[Any, Any], ...] = (
-    Stage("conditions", _take_conditions, conditions),
-    Stage("symbolic", _take_symbolic, symbolic),
-    Stage("params", _take_params, params, on_reuse=False),
-    Stage("budget", _take_budget, budget, on_reuse=False),
-    Stage("scoring", _take_scoring, scoring),
-    Stage("verification", _take_verification, verification, on_reuse=False),
-    Stage("answer", _take_answer, answer),
-)
-STAGES: tuple[str, ...] = tuple(s.name for s in PIPELINE)
 
 
 def _budget_key(b: Budget | None) -> tuple[Any, ...] | None:

@@ -154,7 +154,7 @@ class Versions(Out):
 class Timings(Out):
     """Milliseconds per stage of the flow, in order, and their total.
 
-    The stages are nfex_core/advisor/stages.py's ``STAGES``. When a stream's decision is carried (``reused`` > 0)
+    The stages are nfex_core/advisor/pipeline.py's ``STAGES``. When a stream's decision is carried (``reused`` > 0)
     params, budget and verification do not run: 0."""
 
     conditions: float

@@ -89,7 +89,7 @@ def test_a_member_the_schema_lacks_is_refused(kg: KnowledgeGraph) -> None:
 
 
 def test_the_timings_are_keyed_by_the_advisor_stages_and_their_total(kg: KnowledgeGraph) -> None:
-    from nfex_core.advisor.stages import STAGES
+    from nfex_core.advisor.pipeline import STAGES
     from service.schemas.selection import Timings
 
     assert tuple(Timings.model_fields) == (*STAGES, "total")

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from nfex_core.advisor.advisor import Advisor
+from nfex_core.advisor.pipeline import STAGES
 from nfex_core.advisor.reuse import ReuseTerms, moved
-from nfex_core.advisor.stages import STAGES
 from nfex_core.kg import KnowledgeGraph
 
 FRAMES = "kitti/sequences/00/image_0"

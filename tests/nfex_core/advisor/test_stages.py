@@ -1,4 +1,4 @@
-"""Each stage of the advisor's flow on its own (advisor/stages.py): its input record built here, no store.
+"""Each stage of the advisor's flow on its own (advisor/stages.py, run in order by advisor/pipeline.py): its input record built here, no store.
 
 A two-extractor vocabulary (ORB with nfeatures and nlevels, SIFT with nfeatures), one condition dimension and a rule
 table of hand-written decisions stand in for a compiled graph; the integration tests (test_advisor*.py, test_budget.py,
@@ -16,12 +16,11 @@ from rdflib import URIRef
 
 from nfex_core.advisor.budget import Budget
 from nfex_core.advisor.params import theta
+from nfex_core.advisor.pipeline import PIPELINE, STAGES
 from nfex_core.advisor.reuse import Decided, ReuseTerms
 from nfex_core.advisor.scoring import Scored, Scorer
 from nfex_core.advisor.selection import UNSCORED, Scoring
 from nfex_core.advisor.stages import (
-    PIPELINE,
-    STAGES,
     AnswerIn,
     BudgetIn,
     ConditionsIn,
