@@ -40,8 +40,9 @@ from ..errors import BadInput
 from ..kg.scope import EvidenceScope, scoped_graph
 from ..kg.vocab import Vocabulary
 from ..neural.serve import ModelHolder
-from ..rules.engine import RuleEngine, RuleTable
+from ..rules.engine import RuleEngine
 from ..rules.persisted import CompiledCache, store_key
+from ..rules.table import RuleTable
 from .pipeline import PIPELINE, Flow, Request
 from .reuse import ReuseTerms
 from .scoring import SCORE_PIXELS, FrameState, Scorer

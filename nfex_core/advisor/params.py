@@ -22,8 +22,8 @@ from ..cost import CostModel, Estimate
 from ..fitness import adjust_params
 from ..kg.vocab import ExtractorSpec, Value, Vocabulary
 from ..neural.serve import NeuralStep
-from ..rules.engine import RuleTable
 from ..rules.shape_check import enforce
+from ..rules.table import RuleTable
 from ..rules.types import Adjustment, Citation, Decision, MeasuredConfiguration
 from .budget import Budget
 from .measured import measured_params

@@ -44,7 +44,7 @@ from .stages import (
 )
 
 if TYPE_CHECKING:
-    from ..rules.engine import RuleTable
+    from ..rules.table import RuleTable
 
 I = TypeVar("I")  # noqa: E741  (a stage's input record)
 O = TypeVar("O")  # noqa: E741  (a stage's output record)

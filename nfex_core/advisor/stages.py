@@ -32,7 +32,7 @@ from .scoring import FrameState, Scored, Scorer, by_network, downscale, prior_sc
 from .selection import UNSCORED, CandidateScore, PrunedCandidate, Scoring, Selection
 
 if TYPE_CHECKING:
-    from ..rules.engine import RuleTable
+    from ..rules.table import RuleTable
 
 I = TypeVar("I")  # noqa: E741  (a stage's input record)
 O = TypeVar("O")  # noqa: E741  (a stage's output record)
