@@ -199,5 +199,5 @@ def open_backend(location: str, settings: Settings | None = None) -> Backend:
     return EmbeddedBackend(Path(location).expanduser(), graph=graph)
 
 
-__all__ = ["DEADLOCK_RETRIES", "Backend", "EmbeddedBackend", "GraphReader", "RemoteBackend", "Row", "SelectResult", "Sink",
-           "json", "json_bindings", "open_backend"]
+__all__ = ["DEADLOCK_RETRIES", "GRAPH_FORMATS", "RESULT_FORMATS", "Backend", "EmbeddedBackend", "GraphReader",
+           "RemoteBackend", "Row", "SelectResult", "Sink", "json", "json_bindings", "open_backend"]
