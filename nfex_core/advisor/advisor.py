@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -206,17 +206,20 @@ class Advisor:
             registry=lambda: snap.registry, memo=snap.priors, context=ctx, frame=frame, previous=previous,
             budget_ms=budget_ms, compute=compute, frame_size=frame_size, neural=self.neural.step(snap.vocab),
             scorer=self.scorer, exhaustive=self.exhaustive_scoring, session=session, verdict_held=verdict_held,
-            staleness=self.snapshots.staleness(snap),
+            staleness=self.snapshots.staleness(snap), timings=laps.timings,
         )
         flow = Flow(request)
+        carried = False
         for stage in PIPELINE:
-            if flow.carried and not stage.on_reuse:
+            if carried and not stage.on_reuse:
                 laps.skip(stage.name)
                 continue
-            flow = stage(flow)
+            stage(flow)
             laps(stage.name)
+            carried = carried or flow.carried
         assert flow.answer is not None
-        return replace(flow.answer, timings_ms=dict(laps.timings, total=sum(laps.timings.values())))
+        laps.timings["total"] = sum(laps.timings.values())  # the answer's timings_ms: the runner's, filled in last
+        return flow.answer
 
 
 class _Laps:

@@ -10,7 +10,7 @@ names (and ``total``, their sum); a stage that does not run for a carried decisi
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 import numpy as np
@@ -73,11 +73,13 @@ class Request:
     session: bool = False
     verdict_held: bool = True
     staleness: tuple[int, float] = (0, 0.0)  # (the store's head version, how stale the snapshot is in ms)
+    timings: dict[str, float] = field(default_factory=dict)  # ms per stage, the runner's: the answer's ``timings_ms``
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class Flow:
-    """One request and the output of every stage that has run, under the stage's name."""
+    """One request and the output of every stage that has run, under the stage's name: the runner's record, each
+    member set once, by its stage (``Stage.__call__``); the outputs themselves are frozen records."""
 
     request: Request
     conditions: Conditions | None = None
@@ -104,8 +106,8 @@ class Stage(Generic[I, O]):
     on_reuse: bool = True
 
     def __call__(self, flow: Flow) -> Flow:
-        out: dict[str, Any] = {self.name: self.run(self.take(flow))}
-        return replace(flow, **out)
+        setattr(flow, self.name, self.run(self.take(flow)))
+        return flow
 
 
 def _need(value: O | None) -> O:
@@ -155,7 +157,8 @@ def _take_answer(f: Flow) -> AnswerIn:
     head, stale_ms = r.staleness
     versions = {"graph": r.version, "graph_head": head, "stale_ms": stale_ms, "programs": r.programs,
                 "rules": len(r.table.rules), "model": r.neural.info}
-    return AnswerIn(r.vocab, sym.decision, _need(f.conditions), sym, f.budget, _need(f.scoring), f.verification, versions)
+    return AnswerIn(r.vocab, sym.decision, _need(f.conditions), sym, f.budget, _need(f.scoring), f.verification, versions,
+                    r.timings)
 
 
 PIPELINE: tuple[Stage[Any, Any], ...] = (

@@ -125,7 +125,7 @@ def params(i: ParamsIn) -> Parameters:
         i.neural.prepare(i.values, frame_stats(i.stats))
     if i.memo is None:
         return theta(i.vocab, i.table, i.decision, i.values, i.budget, i.neural, i.pixels)
-    key = ("params", id(i.decision), _budget_key(i.budget), i.neural.info.get("used"))
+    key = ("params", id(i.decision), i.budget, i.neural.info.get("used"))
     hit = i.memo.get(key)
     if hit is None:
         hit = i.memo[key] = theta(i.vocab, i.table, i.decision, i.values, i.budget, i.neural, i.pixels)
@@ -179,7 +179,7 @@ def budget(i: BudgetIn) -> Settled:
     """The stage: ``settle_budget``, once per context and snapshot without a frame (``memo``)."""
     if i.memo is None:
         return settle_budget(i)
-    key = ("budget", id(i.decision), _budget_key(i.budget), id(i.params))
+    key = ("budget", id(i.params))  # the memo keeps that Parameters, made for one decision, budget and model
     hit = i.memo.get(key)
     if hit is None:
         hit = i.memo[key] = settle_budget(i)
@@ -280,7 +280,7 @@ def verification(i: VerificationIn) -> Verification:
     if i.budget is None or not policy.active or cap <= 1.0:
         return Verification(policy)
     wide = replace(i.budget, ms=i.budget.ms * cap, source=f"{i.budget.source} × verification cap {cap:g}")
-    key = ("escalations", id(i.decision), _budget_key(wide), i.neural.info.get("used"))
+    key = ("escalations", id(i.decision), wide, i.neural.info.get("used"))
     hit = i.memo.get(key)
     if hit is None:
         p = theta(i.vocab, i.table, i.decision, i.values, wide, i.neural, None)
@@ -300,17 +300,19 @@ class AnswerIn:
     scored: Scored
     verification: Verification | None  # None for a carried decision
     versions: Mapping[str, Any] = field(default_factory=dict)
+    timings: dict[str, float] = field(default_factory=dict)  # the runner's ms per stage, filled in as the flow runs
 
 
 def answer(i: AnswerIn) -> Selection:
     """α* (the first of the ranked candidates), the candidates best first and everything pruned on the way, as a
-    Selection; a carried decision's Selection with this frame's context and state. ``timings_ms`` is the flow's."""
+    Selection; a carried decision's Selection with this frame's context and state. ``timings_ms`` is the runner's
+    ``timings`` (it times this stage after it returns)."""
     state = i.scored.state
     if state is not None:
         state = replace(state, analysis=i.conditions.analysis)
     carried = i.symbolic.carried
     if carried is not None:
-        return replace(carried.selection, context=i.conditions.entries, timings_ms={}, reused=carried.reused,
+        return replace(carried.selection, context=i.conditions.entries, timings_ms=i.timings, reused=carried.reused,
                        scoring=i.scored.scoring, state=state)
     assert i.settled is not None and i.verification is not None
     order = i.scored.candidates
@@ -329,7 +331,7 @@ def answer(i: AnswerIn) -> Selection:
         context=i.conditions.entries,
         weights=dict(i.decision.weights),
         versions=dict(i.versions),
-        timings_ms={},
+        timings_ms=i.timings,
         opencv=spec.opencv(best.params),
         recipe=lambda x, p: vocab.extractor(x).opencv(p),
         budget=i.symbolic.budget.as_dict() if i.symbolic.budget is not None else None,
@@ -339,13 +341,11 @@ def answer(i: AnswerIn) -> Selection:
         scoring=i.scored.scoring,
     )
     stats = i.conditions.stats
-    if state is not None and i.symbolic.key is not None and stats is not None:  # what the next frames may reuse
+    if state is None:
+        return sel
+    if i.symbolic.key is not None and stats is not None:  # what the next frames may reuse (the answer without its state)
         state = replace(state, decided=Decided(i.symbolic.key, dict(stats), sel, estimate=i.symbolic.estimate))
     return replace(sel, state=state)
-
-
-def _budget_key(b: Budget | None) -> tuple[Any, ...] | None:
-    return None if b is None else tuple(b.as_dict().values())
 
 
 def no_candidate(pruned: Mapping[str, tuple[Citation, ...]]) -> NoCandidate:
