@@ -94,6 +94,7 @@ bench: install-dev
 lint: install-dev
 	$(BIN)/ruff check nfex_core service clients tests bench
 	$(BIN)/mypy nfex_core service clients/python/nfex_client clients/slam/nfex_slam
+	$(BIN)/lint-imports  # the layers, import cycles and the core's freedom from the service: pyproject.toml [tool.importlinter]
 
 clean:
 	rm -rf $(VENV) build *.egg-info $(CPP_BUILD)

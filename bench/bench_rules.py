@@ -66,8 +66,8 @@ def main() -> None:
     select_us = per_call_us(lambda c: advisor.select({k: v for k, v in c.items() if v is not None}), requests[: max(1, args.requests // 10)])
 
     # the rules run on the evidence view (admitted measurements, robust summaries), as the engine runs them
-    assert table.view is not None and table.view.backend is not None
-    view = table.view.backend  # the compile's own view
+    assert table.carry.view is not None and table.carry.view.backend is not None
+    view = table.carry.view.backend  # the compile's own view
     dump = io.BytesIO()
     view.query_to("CONSTRUCT { ?s ?p ?o } WHERE { ?s ?p ?o }", "application/n-triples", dump)
     data = rdflib.Graph().parse(data=dump.getvalue().decode(), format="nt")

@@ -27,7 +27,7 @@ from .errors import NfexError
 from .kg.backends import EmbeddedBackend
 from .kg.changes import ChangeSet
 from .kg.terms import triple_n3
-from .rules.engine import RuleTable
+from .rules.table import RuleTable
 
 if TYPE_CHECKING:
     from .advisor import Advisor

@@ -45,6 +45,10 @@ from nfex_slam.pairs import ACCEPT, FALLBACK, NEXT, PairEvidence, Prior, Verdict
 
 from .rules.types import Policy
 
+# the pose error (rotation + translation direction, degrees) a lost pair is charged where pair errors are summed or
+# capped: the hindsight oracles (evaluation/oracle.py) and the verification learner (sweeps/verification.py)
+LOST_PAIR_DEG = 360.0
+
 
 def signals(tried: Sequence[PairEvidence], i: int, prior: Prior | None) -> dict[str, float | None]:
     """The signals of candidate i among ``tried`` (module docstring); None where undefined."""

@@ -124,3 +124,21 @@ def test_the_checks_can_fail(tmp_path: Path) -> None:
             test_every_nfex_command_named_exists(doc)
     finally:
         doc.unlink()
+
+
+STAGE = re.compile(r"─► ([a-z]+)")
+
+
+def _flow(text: str, start: str) -> tuple[str, ...]:
+    """The stage names of the flow picture that starts at ``start``: the words after each ─► up to the closing fence."""
+    block = text[text.index(start):]
+    return tuple(STAGE.findall(block[: block.index("```")]))
+
+
+def test_the_flow_pictures_name_the_advisor_pipeline_stages() -> None:
+    """README's flow, docs/architecture.md's diagram, the advisor's stage tuple and so the timings_ms keys agree."""
+    from nfex_core.advisor.pipeline import STAGES
+
+    assert _flow((REPO / "README.md").read_text(), "frame + context\n") == STAGES
+    assert _flow((REPO / "docs" / "architecture.md").read_text(), "frame + context ─►") == STAGES
+    assert _flow("frame + context\n  ─► conditions\n  ─► choice\n```", "frame + context\n") != STAGES

@@ -1,7 +1,8 @@
 """The advisor: one object that turns a frame and a context into a Selection (α*, Θ′ and why).
 
-The flow's stages, in order: ``conditions`` → the rule table's decision → ``params`` → ``scoring`` →
-``choice``; ``advisor.Advisor`` runs them, ``selection`` holds what it answers.
+The flow's stages, in order (``pipeline.STAGES``): ``conditions`` → ``symbolic`` → ``params`` → ``budget`` →
+``scoring`` → ``verification`` → ``answer``; ``advisor.Advisor`` runs them (``pipeline.PIPELINE``), ``selection``
+holds what it answers.
 """
 from __future__ import annotations
 

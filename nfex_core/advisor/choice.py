@@ -1,4 +1,4 @@
-"""Stage 5 of the flow, choice: α* from the scored candidates, and the order of the proposals.
+"""The order the scoring stage lists candidates in: α* first, then the proposals a verifying client tries.
 
 α* = argmax score; among equal scores the cheaper candidate wins — its expected extraction time under the
 budget where one is in force, else its measured mean extraction time (unknown: last). The candidates

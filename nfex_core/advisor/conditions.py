@@ -1,4 +1,4 @@
-"""Stage 1 of the flow, conditions: the context E the rest of the flow decides under.
+"""The flow's ``conditions`` stage: the context E the rest of the flow decides under.
 
 What the client gives always wins; the dimensions the graph marks estimable (light, texture, motion,
 reflectance) and the client left open are estimated from the frame (``vision.context``), with a

@@ -1,4 +1,4 @@
-"""Stage 3 of the flow, parameters: Θ′ for every candidate of C(E).
+"""The flow's ``params`` stage: Θ′ for every candidate of C(E).
 
 Θ′ comes from a declared chain of sources, tried in order; the first that has something to say sets it:
 
@@ -7,25 +7,25 @@
 2. ``paramnet`` — ParamNet(E, s), where the network is in use and learned α's parameters (``neural.serve``);
 3. ``rules``   — the paper's g(Θ, E) = Θ·Π_j f_kj(e_j) (``fitness.adjust_params``); always answers.
 
-Then the context shapes in force repair Θ′ (clamp a violated bound) or prune α (``rules.shape_check``),
-and then, under a budget, the cost check fits Θ′ (fewer features or levels) or prunes α
-(``advisor.budget.settle``). A new source of Θ′ is a class with ``name`` and ``propose`` added to
-``THETA_SOURCES`` at its place in the order.
+Then the context shapes in force repair Θ′ (clamp a violated bound) or prune α (``rules.shape_check``).
+Under a budget, the candidates a relative-accuracy rule pruned get a Θ′ too: the next stage, ``budget``
+(``advisor.budget.settle``), fits or prunes every candidate and re-judges those. A new source of Θ′ is a
+class with ``name`` and ``propose`` added to ``THETA_SOURCES`` at its place in the order.
 """
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Protocol
 
 from ..cost import CostModel, Estimate
 from ..fitness import adjust_params
 from ..kg.vocab import ExtractorSpec, Value, Vocabulary
 from ..neural.serve import NeuralStep
-from ..rules.engine import RuleTable
 from ..rules.shape_check import enforce
+from ..rules.table import RuleTable
 from ..rules.types import Adjustment, Citation, Decision, MeasuredConfiguration
-from .budget import Budget, BudgetOutcome, settle
+from .budget import Budget
 from .measured import measured_params
 
 
@@ -102,16 +102,17 @@ class Candidate:
     cost: Estimate | None = None  # expected extraction time, under a budget
 
 
-@dataclass
+@dataclass(frozen=True)
 class Parameters:
-    """The stage's output: the candidates that kept a Θ′, in C(E)'s order, and what was cut on the way."""
+    """The stage's output: the candidates that kept a Θ′, in C(E)'s order, and what was cut on the way; under a
+    budget, the candidates a relative-accuracy rule pruned, with their Θ′, for the budget stage to re-judge."""
 
-    candidates: dict[str, Candidate]
-    shaped_out: dict[str, tuple[Citation, ...]] = field(default_factory=dict)  # pruned by a context shape
-    budget: BudgetOutcome | None = None
+    candidates: Mapping[str, Candidate]
+    shaped_out: Mapping[str, tuple[Citation, ...]] = field(default_factory=dict)  # pruned by a context shape
+    relative: Mapping[str, Candidate] = field(default_factory=dict)
 
 
-def parameters(
+def theta(
     vocab: Vocabulary,
     table: RuleTable,
     decision: Decision,
@@ -124,33 +125,24 @@ def parameters(
     """Θ′ per candidate of ``decision`` (module docstring)."""
     inputs = ThetaInputs(decision, table.measured(values), ", ".join(f"{d} = {v}" for d, v in values.items() if v is not None),
                          table.cost, budget, neural, pixels)
-    out = Parameters({})
+    candidates: dict[str, Candidate] = {}
+    shaped_out: dict[str, tuple[Citation, ...]] = {}
 
-    def admit(x: str) -> bool:
+    def admit(x: str, into: dict[str, Candidate]) -> None:
         spec = vocab.extractor(x)
         proposal = next(p for s in sources if (p := s.propose(spec, inputs)) is not None)
         shaped = enforce(spec, proposal.params, decision.shapes)
         if shaped.pruned:
-            out.shaped_out[x] = shaped.pruned
-            return False
-        out.candidates[x] = Candidate(x, shaped.params, (*proposal.adjustments, *shaped.adjustments), proposal)
-        return True
+            shaped_out[x] = shaped.pruned
+            return
+        into[x] = Candidate(x, shaped.params, (*proposal.adjustments, *shaped.adjustments), proposal)
 
     for x in decision.candidates:
-        admit(x)
-    if budget is None:
-        return out
-    terms = table.budget_terms
-    # what a relative-accuracy rule pruned is re-judged against the best *affordable* extractor
-    relative = [x for x, cs in decision.pruned.items() if cs and all(c.rule in terms.relative_rules for c in cs)]
-    relative = [x for x in relative if admit(x)]
-    ates = {x: e.ate for x, e in decision.evidence.items() if e.ate}
-    theta = {x: c.params for x, c in out.candidates.items()}
-    outcome = settle(table.cost, terms, vocab.extractors, ates, theta, relative, budget)
-    out.budget = outcome
-    out.candidates = {
-        x: replace(c, params=outcome.params[x], adjustments=(*c.adjustments, *outcome.adjustments.get(x, ())),
-                   cost=outcome.estimates.get(x))
-        for x, c in out.candidates.items() if x in outcome.params
-    }
-    return out
+        admit(x, candidates)
+    relative: dict[str, Candidate] = {}
+    if budget is not None:  # what a relative-accuracy rule pruned is re-judged against the best *affordable* extractor
+        rules = table.budget_terms.relative_rules
+        for x, cs in decision.pruned.items():
+            if cs and all(c.rule in rules for c in cs):
+                admit(x, relative)
+    return Parameters(candidates, shaped_out, relative)

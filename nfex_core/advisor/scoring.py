@@ -1,4 +1,4 @@
-"""Stage 4 of the flow, scoring: a score per candidate, from the frame or, without one, from the graph.
+"""The flow's ``scoring`` stage: a score per candidate, from the frame or, without one, from the graph.
 
 On a frame (paper §IV-A, step 2, extended by measured accuracy): each candidate is extracted with its Θ′
 on a QQVGA-sized copy of the frame (``SCORE_PIXELS``; count parameters scaled to its size) and scored

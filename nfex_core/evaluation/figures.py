@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from .run import RunRecord
+    from .record import RunRecord
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,7 @@ from nfex_slam.datasets.base import Frame
 from nfex_slam.datasets.schedule import Schedule
 from nfex_slam.vo import Choice, Chooser, FrameRecord, VOResult
 
-LOST_PAIR_DEG = 360.0
+from ..verification import LOST_PAIR_DEG
 
 
 def pair_error(f: FrameRecord) -> float:

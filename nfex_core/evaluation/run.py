@@ -39,50 +39,12 @@ from ..kg.scope import EvidenceScope, scoped_graph
 from .figures import ATE, Figure, rank
 from .methods import NFEX, ORACLES, TUNED, AdvisorChooser, DynChooser, chooser_for, static_methods
 from .oracle import per_pair, per_segment, replay
-from .outcomes import MOTION_PRIOR, FrontEnd, Outcomes, frontend, max_coasted_fraction, motion_prior
+from .outcomes import MOTION_PRIOR, Outcomes, frontend, max_coasted_fraction, motion_prior
+from .record import RunRecord
 from .segments import by_segment, run_errors, transitions
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
-
-
-@dataclass
-class RunRecord:
-    method: str
-    condition: str  # a corruption name, "none", or "schedule"
-    run: int
-    ate_rmse: float | None
-    rpe_rmse: float | None
-    failed: bool
-    lost: int  # pairs the geometry lost (coasted pairs are not counted)
-    rejected: int  # pairs the front-end checks rejected (counted in coasted)
-    frames: int
-    extraction_ms: float  # mean per frame
-    extraction_max_ms: float
-    matching_ms: float  # mean per frame pair
-    expected_ms: float | None  # the cost model's mean expected extraction ms of the configurations run
-    wall_s: float
-    note: str = ""
-    budget_ms: float | None = None
-    tries: float = 1.0  # candidates tried per frame pair, mean (verification; 1 without)
-    tries_max: int = 1
-    fell_back: int = 0  # pairs verification sent to the motion prior (counted in coasted)
-    segments: list[dict[str, Any]] = field(default_factory=list)
-    transitions: list[dict[str, Any]] = field(default_factory=list)
-    result: VOResult | None = field(default=None, repr=False)
-    selections: list[dict[str, Any]] = field(default_factory=list, repr=False)
-    coasted: int = 0  # pairs that fell back to the motion prior (front-end checks or verification)
-    auc: dict[float, float] = field(default_factory=dict)  # pose AUC by threshold (degrees)
-    frontend_ate: float | None = None  # ATE with ground-truth step lengths, SE(3)
-    front: FrontEnd | None = field(default=None, repr=False)
-
-    @property
-    def ms_per_frame(self) -> float:
-        return self.extraction_ms + self.matching_ms
-
-    @property
-    def key(self) -> str:
-        return self.method if self.budget_ms is None else f"{self.method}@{self.budget_ms:g}ms"
 
 
 @dataclass

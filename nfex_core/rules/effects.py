@@ -11,7 +11,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from .engine import RuleTable
+from .table import RuleTable
 from .types import Citation
 
 

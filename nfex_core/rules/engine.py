@@ -30,15 +30,12 @@ import os
 import threading
 import time
 from collections.abc import Callable, Collection, Hashable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Any, TypeVar, cast
+from typing import TYPE_CHECKING, TypeVar, cast
 
-from nfex_slam.motion import StepChecks
 from rdflib.term import URIRef
 
-from ..cost import BudgetTerms, CostModel, fit_groups
-from ..errors import NfexError
-from ..evidence import Admission, Aggregate, Observation, robust
+from ..cost import fit_groups
+from ..evidence import Observation, robust
 from ..evidence.groups import Grouped
 from ..evidence.index import Diff, ObservationIndex
 from ..evidence.view import EvidenceView, dump, evidence_view, summary_lines
@@ -50,184 +47,21 @@ from ..kg.vocab import ExtractorSpec, Value
 from . import pruning
 from .persisted import CompiledCache
 from .setup import Setup
-from .statements import CompiledStatement
+from .table import MAX_MADE, CompileState, RuleTable, _measured_configuration
 from .types import (
     Citation,
     ContextKey,
     Decision,
-    Evidence,
-    MeasuredConfiguration,
 )
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
 
+__all__ = ["MAX_MADE", "CompileState", "RuleEngine", "RuleTable", "backend_citations", "compile_table"]
+
 log = logging.getLogger("nfex.rules")
-MAX_MADE = 100_000  # entries of ``RuleTable.made``: contexts asked × extractors × measured configurations
 K = TypeVar("K", bound=Hashable)
 V = TypeVar("V")
-_TAKE = threading.Lock()  # RuleTable.take_view
-
-
-@dataclass
-class RuleTable:
-    version: int
-    dimensions: tuple[str, ...]
-    decisions: dict[ContextKey, Decision]
-    rules: list[pruning.SparqlRule]
-    statements: list[CompiledStatement]
-    errors: list[str]
-    compile_ms: float
-    cost: CostModel = field(default_factory=CostModel)
-    budget_terms: BudgetTerms = field(default_factory=BudgetTerms)
-    # extractor → configuration IRI → (its full Θ, its admitted observations); see ``measured``
-    configurations: dict[str, dict[str, tuple[dict[str, Value], Sequence[Observation]]]] = field(default_factory=dict)
-    min_measurements: int = 3
-    # extractor → condition set → admitted observations (the evidence per context, ``decide``)
-    observed: dict[str, dict[frozenset[tuple[str, str]], Sequence[Observation]]] = field(default_factory=dict)
-    admission: Admission = field(default_factory=Admission)
-    step_checks: dict[str, StepChecks] = field(default_factory=dict)  # agent → front-end checks (motion.py)
-    index: ObservationIndex | None = field(default=None, repr=False)  # the observations read, for the next compile
-    view: EvidenceView | None = field(default=None, repr=False, compare=False)  # the rules' view, for the next compile
-    setup: Setup | None = field(default=None, repr=False, compare=False)  # the configuration stage, for the next compile
-    # per (rule, its contextualised query): the contexts it prunes in, with the extractors and citations
-    hits: dict[tuple[pruning.SparqlRule, str], dict[int, list[tuple[str, Citation]]]] = field(default_factory=dict, repr=False, compare=False)
-    ruled: dict[int, tuple[tuple[str, Citation], ...]] = field(default_factory=dict, repr=False, compare=False)  # rule prunes per context
-    plain: dict[ContextKey, Decision] = field(default_factory=dict, repr=False, compare=False)  # decisions before evidence (``decide``)
-    # the admitted observations grouped (evidence/groups.py), and what was made of each group, for the next compile
-    grouped: Grouped | None = field(default=None, repr=False, compare=False)
-    summary_lines: dict[Any, tuple[str, ...]] = field(default_factory=dict, repr=False, compare=False)
-    cost_groups: dict[Any, Aggregate] = field(default_factory=dict, repr=False, compare=False)
-    measured_groups: dict[Any, Any] = field(default_factory=dict, repr=False, compare=False)
-    kept_in: str | None = field(default=None, repr=False, compare=False)  # the file it was read from (persisted.py), not compiled here
-    _measured: dict[ContextKey, dict[str, tuple[MeasuredConfiguration, ...]]] = field(default_factory=dict, repr=False)
-    _evidenced: set[ContextKey] = field(default_factory=set, repr=False)
-    # per (context, extractor[, configuration]): what ``measured`` and ``decide`` made of it, with the groups it was made
-    # from; ``made_before`` is the last table's, from which what the same groups give is taken (``_made``)
-    made: dict[tuple[Hashable, ...], tuple[object, Any]] = field(default_factory=dict, repr=False, compare=False)
-    made_before: dict[tuple[Hashable, ...], tuple[object, Any]] | None = field(default=None, repr=False, compare=False)
-
-    def _made(self, key: tuple[Hashable, ...], source: object, make: Callable[[], V]) -> V:
-        """``make()``, or what the last table made of the same ``source`` (the very object: a group a compile
-        carried untouched, engine._per_group) under the same ``key``. Selections after each report then cost
-        what the report changed, not a pass over every measured configuration."""
-        hit = self.made.get(key)
-        if hit is None and self.made_before is not None:
-            hit = self.made_before.get(key)
-        value: V = hit[1] if hit is not None and hit[0] is source else make()
-        if len(self.made) < MAX_MADE:  # past it, what is made is not kept: memory stays bounded, answers the same
-            self.made[key] = (source, value)
-        return value
-
-    def key(self, context: Mapping[str, str | None]) -> ContextKey:
-        return tuple(context.get(d) for d in self.dimensions)
-
-    def take_view(self) -> EvidenceView | None:
-        """The evidence view, handed to one next compile only (which changes it in place)."""
-        with _TAKE:
-            view, self.view = self.view, None
-        return view
-
-    def decide(self, context: Mapping[str, str | None]) -> Decision:
-        """The decision for a context (values must be checked against the vocabulary beforehand); its
-        evidence is aggregated on the context's first request and kept."""
-        key = self.key(context)
-        decision = self.decisions[key]
-        if key not in self._evidenced:
-            known = {d: v for d, v in zip(self.dimensions, key, strict=True) if v is not None}
-            decision = replace(decision, evidence=self._evidence(key, known))
-            self.decisions[key] = decision
-            self._evidenced.add(key)
-        return decision
-
-    def _evidence(self, key: ContextKey, known: dict[str, str]) -> dict[str, Evidence]:
-        out: dict[str, Evidence] = {}
-        if not known:
-            return out
-        for x, groups in self.observed.items():
-            found = self._made((key, x), groups, lambda groups=groups: _evidence(groups, known))  # type: ignore[misc]
-            if found is not None:
-                out[x] = found
-        return out
-
-    def measured(self, context: Mapping[str, str | None]) -> dict[str, tuple[MeasuredConfiguration, ...]]:
-        """Per extractor, its measured configurations under ``context``, lowest median ATE first.
-
-        A measurement counts when it is admitted (evidence/trust.py), shares at least one of the
-        context's known condition values and contradicts none. A configuration is listed when at least
-        ``nfex:minMeasurements`` counting windows have an ATE and none of them failed (a configuration
-        that lost a window here is not a candidate for the best one)."""
-        key = self.key(context)
-        found = self._measured.get(key)
-        if found is not None:
-            return found
-        known = {d: v for d, v in zip(self.dimensions, key, strict=True) if v is not None}
-        found = {}
-        for x, configurations in self.configurations.items():
-            ranked = []
-            for iri, found_here in configurations.items():
-                params, observations = found_here
-                one = self._made((key, x, iri), found_here,
-                                 lambda iri=iri, p=params, obs=observations: _ranked(iri, p, obs, known, self.min_measurements))  # type: ignore[misc]
-                if one is not None:
-                    ranked.append(one)
-            if ranked:
-                found[x] = tuple(sorted(ranked, key=lambda c: (c.ate, c.iri)))
-        self._measured[key] = found
-        return found
-
-
-def _evidence(groups: Mapping[frozenset[tuple[str, str]], Sequence[Observation]], known: dict[str, str]) -> Evidence | None:
-    """An extractor's evidence under the ``known`` values, from its observations grouped by condition set."""
-    counted = [o for obs in groups.values() if obs[0].counts_under(known) for o in obs]
-    if not counted:
-        return None
-    ates = [o.ate for o in counted if o.ate is not None]
-    costs = [o.extraction_ms for o in counted if o.extraction_ms is not None]
-    agg = robust(ates) if ates else None
-    return Evidence(agg.value if agg else None, len(counted), robust(costs).value if costs else None,
-                    agg.outliers if agg else 0, tuple(sorted({o.source for o in counted})))
-
-
-def _counting(observations: Sequence[Observation], known: dict[str, str]) -> list[Observation]:
-    """The observations that count under the ``known`` values (``Observation.counts_under``), asked once per
-    condition set: a configuration's windows share a few."""
-    verdicts: dict[frozenset[tuple[str, str]], bool] = {}
-    out = []
-    for o in observations:
-        verdict = verdicts.get(o.conditions)
-        if verdict is None:
-            verdict = verdicts[o.conditions] = o.counts_under(known)
-        if verdict:
-            out.append(o)
-    return out
-
-
-def _ranked(iri: str, params: dict[str, Value], observations: Sequence[Observation], known: dict[str, str],
-            min_measurements: int) -> MeasuredConfiguration | None:
-    """A measured configuration under the ``known`` values, or None where it is not listed (``RuleTable.measured``)."""
-    counted = _counting(observations, known)
-    ates = [o.ate for o in counted if o.ate is not None]
-    if len(ates) < min_measurements or any(o.failed for o in counted):
-        return None
-    agg = robust(ates, (o.source for o in counted))
-    return MeasuredConfiguration(iri, params, agg.value, agg.windows, agg.outliers, agg.sources)
-
-
-def _measured_configuration(key: tuple[str, str], observations: tuple[Observation, ...], settings: Mapping[str, Mapping[str, Value]],
-                            extractors: Mapping[str, ExtractorSpec]) -> tuple[dict[str, Value], tuple[Observation, ...]] | None:
-    """A measured configuration's full Θ (resolved against the graph's ranges once, here) and its admitted
-    observations; None for an extractor the graph does not have or a Θ its ranges no longer allow."""
-    x, cfg = key
-    spec = extractors.get(x)
-    if spec is None:
-        return None
-    try:
-        return spec.resolve(settings.get(cfg, {})), observations
-    except NfexError as e:
-        log.warning("measured configuration %s left out: %s", cfg, e)
-        return None
-
 
 
 def _per_group(groups: Mapping[K, tuple[Observation, ...]], dirty: Collection[K] | None, earlier: Mapping[K, V] | None,
@@ -249,38 +83,38 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     (setup.py) when the change is evidence only, and each context's decision whose rule prunes are unchanged."""
     t0 = time.perf_counter()
     version = kg.version
+    carry = previous.carry if previous is not None else None  # what the last compile left for this one
     # the stages below read the same change once, and each version's change set once: while reports stream in, the
     # head moves during a compile and its ranges overlap (version → head, read again as the head moves)
     changes = functools.cache(lambda n: read_changes(kg.backend, n))
     diff = functools.cache(lambda since, until: kg.diff(since, until, read=changes))
     # a full read of the observations runs in the store without the interpreter lock (observations.py) while the
     # configuration stage below parses the rules' queries with it
-    reading = _pool().submit(ObservationIndex.read, kg) if previous is None or previous.index is None else None
+    reading = _pool().submit(ObservationIndex.read, kg) if carry is None else None
     absent = backend_citations(kg, kg.vocabulary().extractors)
-    setup = _carried_setup(kg, previous, version, diff, absent) or Setup.read(kg, absent, previous.setup if previous is not None else None)
+    setup = _carried_setup(kg, previous, version, diff, absent) or Setup.read(kg, absent, carry.setup if carry is not None else None)
     vocab, dims = setup.vocab, setup.dimensions
     reach = _reach(setup)  # what the rules can read: all the view must hold of the stored graph
     # a fresh view's copy of the store is made while the observations are read (Oxigraph dumps without the lock)
     copying = _pool().submit(dump, kg, reach) if setup.rules and (
-        previous is None or previous.view is None or previous.view.reach != reach) else None
+        carry is None or carry.view is None or carry.view.reach != reach) else None
     if reading is not None:
         index = reading.result()
     else:
-        assert previous is not None and previous.index is not None
-        index = previous.index.advance(kg, diff, version)
-    grouped = previous.grouped.advance(previous.index.observations, index.observations, index.changed, setup.policy) \
-        if previous is not None and previous.grouped is not None and previous.index is not None and index.changed is not None \
-        and previous.setup is not None and previous.setup.policy == setup.policy \
+        assert carry is not None
+        index = carry.index.advance(kg, diff, version)
+    grouped = carry.grouped.advance(carry.index.observations, index.observations, index.changed, setup.policy) \
+        if carry is not None and index.changed is not None and carry.setup.policy == setup.policy \
         else Grouped.of(index.observations.values(), setup.policy)
     admission = grouped.admission
     extractor_iris = {x: str(e.iri) for x, e in vocab.extractors.items()}
-    alike = previous is not None and previous.setup is not None and _extractor_names(previous.setup) == _extractor_names(setup) \
-        and previous.setup.value_iris == setup.value_iris
+    alike = carry is not None and _extractor_names(carry.setup) == _extractor_names(setup) \
+        and carry.setup.value_iris == setup.value_iris
     dirty = grouped.dirty or {}
-    lines = _per_group(grouped.groups["summary"], dirty.get("summary"), previous.summary_lines if alike and previous else None,
+    lines = _per_group(grouped.groups["summary"], dirty.get("summary"), carry.summary_lines if alike and carry is not None else None,
                        lambda k, obs: summary_lines(k, obs, extractor_iris, setup.value_iris))
     summary = frozenset(line for group in lines.values() for line in group)
-    carried = previous.take_view() if previous is not None and setup.rules and copying is None else None
+    carried = carry.take_view() if carry is not None and setup.rules and copying is None else None
     if carried is not None and carried.reach != reach:
         carried = None
     made: EvidenceView | None = None
@@ -289,14 +123,14 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
             else evidence_view(kg, admission, summary, reach, copying.result() if copying is not None else None)
     errors: list[str] = []
     ruled: dict[int, list[tuple[str, Citation]]] = {}
-    same = previous is not None and previous.setup is setup
+    same = carry is not None and carry.setup is setup
     delta = made.delta if made is not None else None
     # a rule's last hits stand where its query is the same, the extractors are named alike and the view's
     # change since misses the rule's footprint, or the stars of its patterns (kg/footprint.py), whatever else of
     # the configuration changed; and where the rule pruned nothing and the change can only take rows out of its
     # answer (a prior that yielded to evidence, and more evidence)
-    earlier = previous.hits if previous is not None and delta is not None and previous.setup is not None \
-        and _extractor_names(previous.setup) == _extractor_names(setup) else {}
+    earlier = carry.hits if carry is not None and delta is not None \
+        and _extractor_names(carry.setup) == _extractor_names(setup) else {}
     hits: dict[tuple[pruning.SparqlRule, str], dict[int, list[tuple[str, Citation]]]] = {}
     touched = delta.pairs() if delta is not None else None
 
@@ -347,17 +181,17 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     rebuilt = 0
     for i, key in enumerate(setup.keys):
         mine = tuple(ruled.get(i, ()))
-        if same and previous is not None and previous.ruled.get(i, ()) == mine:
-            plain[key] = previous.plain[key]
+        if same and carry is not None and carry.ruled.get(i, ()) == mine:
+            plain[key] = carry.plain[key]
         else:
             plain[key] = setup.decision(i, mine)
             rebuilt += 1
     settings = index.measured_settings()
-    aggregates = _per_group(grouped.groups["cost"], dirty.get("cost"), previous.cost_groups if previous is not None else None,
+    aggregates = _per_group(grouped.groups["cost"], dirty.get("cost"), carry.cost_groups if carry is not None else None,
                             lambda k, obs: robust([o.extraction_ms for o in obs if o.extraction_ms is not None]))
     cost = fit_groups(vocab.extractors, settings, aggregates)
     measured = _per_group(grouped.groups["measured"], dirty.get("measured"),
-                          previous.measured_groups if same and previous is not None else None,
+                          carry.measured_groups if same and carry is not None else None,
                           lambda k, obs: _measured_configuration(k, obs, settings, vocab.extractors),
                           lambda k: k[1] in index.resettled)
     configurations: dict[str, dict[str, tuple[dict[str, Value], Sequence[Observation]]]] = {}
@@ -384,8 +218,8 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
              len(setup.statements), version, ms, "read in full" if index.reread < 0 else f"{index.reread} re-read", index.ms)
     return RuleTable(version, dims, dict(plain), list(setup.rules), list(setup.statements), errors, ms, cost, setup.budget_terms,
                      configurations, setup.min_measurements, observed, admission, step_checks=dict(setup.step_checks),
-                     index=index, view=made, setup=setup, hits=hits, ruled={i: tuple(r) for i, r in ruled.items()}, plain=plain,
-                     grouped=grouped, summary_lines=lines, cost_groups=aggregates, measured_groups=measured,
+                     carry=CompileState(setup, index, made, hits, {i: tuple(r) for i, r in ruled.items()}, plain, grouped,
+                                        lines, aggregates, measured),
                      made_before=previous.made if previous is not None and previous.min_measurements == setup.min_measurements
                      and previous.dimensions == dims and alike else None)
 
@@ -444,7 +278,8 @@ def _carried_setup(kg: KnowledgeGraph, previous: RuleTable | None, version: int,
     read again, three times. A store this process alone writes is then read once more holding its write lock, where
     no commit can land: reports committed every few milliseconds (one reporter, batches of one) outran three reads
     and made each compile re-read its configuration (tests/nfex_core/rules/test_setup.py)."""
-    if previous is None or previous.setup is None or dict(previous.setup.absent) != dict(absent):
+    carry = previous.carry if previous is not None else None
+    if previous is None or carry is None or dict(carry.setup.absent) != dict(absent):
         return None
     try:
         change = diff(previous.version, version)
@@ -457,11 +292,11 @@ def _carried_setup(kg: KnowledgeGraph, previous: RuleTable | None, version: int,
         for _ in range(3):
             found = read()
             if found is not None:
-                return previous.setup if found else None
+                return carry.setup if found else None
         if kg.backend.exclusive:
             with kg.backend.write_lock:  # the commits wait a few reads; nothing here waits on a commit
                 found = read()
-            return previous.setup if found else None
+            return carry.setup if found else None
     except Exception:  # a pruned or unreadable history
         return None
     return None

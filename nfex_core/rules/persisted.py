@@ -45,10 +45,10 @@ from ..namespaces import NFEX
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
-    from .engine import RuleTable
+    from .table import RuleTable
 
 log = logging.getLogger("nfex.rules")
-FORMAT = 1
+FORMAT = 2
 KEEP = 16  # tables of this many stores (a test suite starts many); the least recently used go
 
 
@@ -124,8 +124,8 @@ class CompiledCache:
         except Exception as e:  # a truncated or unreadable file is a cache miss, not an outage
             log.warning("compiled table %s does not read (%s: %s); compiling", self.path, type(e).__name__, e)
             return None
-        setup = getattr(table, "setup", None)
-        if setup is None or dict(setup.absent) != dict(absent):
+        carry = getattr(table, "carry", None)
+        if carry is None or dict(carry.setup.absent) != dict(absent):
             log.info("compiled table %s: other extractor backends missing; compiling", self.path)
             return None
         table.kept_in = str(self.path)
@@ -146,9 +146,13 @@ class CompiledCache:
                 commit = commit_of(kg, table.version)
                 if commit is None or self._holds == (table.version, commit):  # nothing to write: the file has it
                     return
-                view = table.view  # the next compile may take it meanwhile (take_view): the next start then makes one
-                kept = dataclasses.replace(table, decisions=dict(table.decisions), view=view.detached() if view is not None else None,
-                                           kept_in=None, _measured={}, _evidenced=set(), made={}, made_before=None)
+                carry = table.carry
+                # the next compile may take the view meanwhile (take_view): the next start then makes one
+                view = carry.view if carry is not None else None
+                kept = dataclasses.replace(
+                    table, decisions=dict(table.decisions),
+                    carry=dataclasses.replace(carry, view=view.detached() if view is not None else None) if carry else None,
+                    kept_in=None, _measured={}, _evidenced=set(), made={}, made_before=None)
                 head = {"format": FORMAT, "code": code_digest(), "location": self.location, "version": table.version, "commit": commit}
 
                 def write(f: BinaryIO) -> None:

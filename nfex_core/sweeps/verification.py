@@ -49,7 +49,7 @@ import numpy as np
 from nfex_slam.motion import angle_between, rotation_deg
 from nfex_slam.pairs import STILL_PX
 
-from ..evaluation.oracle import LOST_PAIR_DEG
+from ..verification import LOST_PAIR_DEG
 from .cells import BAD_PAIR_DEG
 from .table import read_pairs
 

@@ -151,6 +151,22 @@ class Versions(Out):
     model: ModelInfo
 
 
+class Timings(Out):
+    """Milliseconds per stage of the flow, in order, and their total.
+
+    The stages are nfex_core/advisor/pipeline.py's ``STAGES``. When a stream's decision is carried (``reused`` > 0)
+    params, budget and verification do not run: 0."""
+
+    conditions: float
+    symbolic: float
+    params: float
+    budget: float
+    scoring: float
+    verification: float
+    answer: float
+    total: float
+
+
 class Grid(Out):
     cell_size: int = Field(..., description="Square cell side in pixels over which detections are spread.")
     keep: int = Field(..., description="How many keypoints to keep after spreading (Θ′'s feature count).")
@@ -230,7 +246,7 @@ class Selection(Out):
     verification: Verification
     warnings: list[str]
     versions: Versions
-    timings_ms: dict[str, float]
+    timings_ms: Timings
     reused: int = Field(0, description="In a stream: how many frames in a row this answer has been reused because its "
                                        "evidence did not move (a session: nfex:sessionDecisionFrames; other streams: "
                                        "nfex:decisionReuseFrames); 0: decided on this frame.")

@@ -86,3 +86,13 @@ def test_a_member_the_schema_lacks_is_refused(kg: KnowledgeGraph) -> None:
     out["candidates"][0]["evidence"]["surprise"] = 1
     with pytest.raises(pydantic.ValidationError):
         Selection.model_validate(out)
+
+
+def test_the_timings_are_keyed_by_the_advisor_stages_and_their_total(kg: KnowledgeGraph) -> None:
+    from nfex_core.advisor.pipeline import STAGES
+    from service.schemas.selection import Timings
+
+    assert tuple(Timings.model_fields) == (*STAGES, "total")
+    out = Advisor(kg).select({"agent": "car"}).as_dict()
+    assert tuple(out["timings_ms"]) == (*STAGES, "total")
+    assert out["timings_ms"]["total"] == pytest.approx(sum(out["timings_ms"][s] for s in STAGES), abs=0.01)

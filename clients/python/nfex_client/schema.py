@@ -345,7 +345,7 @@ class Selection(TypedDict):
     verification: Verification
     warnings: list[str]
     versions: Versions
-    timings_ms: dict[str, float]
+    timings_ms: Timings
     reused: NotRequired[int]
     scoring: NotRequired[Scoring | None]
     keypoints: NotRequired[Keypoints | None]
@@ -376,7 +376,7 @@ class SessionSelection(TypedDict):
     verification: Verification
     warnings: list[str]
     versions: Versions
-    timings_ms: dict[str, float]
+    timings_ms: Timings
     reused: NotRequired[int]
     scoring: NotRequired[Scoring | None]
     keypoints: NotRequired[Keypoints | None]
@@ -411,6 +411,19 @@ class StreamPosition(TypedDict):
     frame: int
     temporal: bool
     reused: NotRequired[bool]
+
+
+class Timings(TypedDict):
+    """Milliseconds per stage of the flow, in order, and their total."""
+
+    conditions: float
+    symbolic: float
+    params: float
+    budget: float
+    scoring: float
+    verification: float
+    answer: float
+    total: float
 
 
 class Verdict(TypedDict):
@@ -492,4 +505,4 @@ class WriteResult(TypedDict):
     iri: NotRequired[str | None]
 
 
-__all__ = ['AcceptRule', 'Adjustment', 'BackendStatus', 'Budget', 'Candidate', 'Citation', 'ConditionValue', 'Conditions', 'ContextEntry', 'Diff', 'Dimension', 'DimensionValues', 'Evidence', 'Extractor', 'ExtractorBrief', 'ExtractorList', 'Grid', 'Head', 'Health', 'Keypoints', 'MeasuredConfiguration', 'MetricBrief', 'ModelInfo', 'OpenCV', 'Parameter', 'ParameterBrief', 'Problem', 'Program', 'ProgramInfo', 'ProgramList', 'Proposal', 'Pruned', 'Ready', 'Report', 'ReportList', 'Rule', 'RuleList', 'RuleTable', 'Scoring', 'Selection', 'Session', 'SessionSelection', 'ShaclProcessStatus', 'SparqlBindings', 'SparqlHead', 'SparqlResults', 'StreamPosition', 'Verdict', 'Verification', 'VersionChanges', 'VersionInfo', 'VersionList', 'Versions', 'Vocabulary', 'Weight', 'WriteResult']
+__all__ = ['AcceptRule', 'Adjustment', 'BackendStatus', 'Budget', 'Candidate', 'Citation', 'ConditionValue', 'Conditions', 'ContextEntry', 'Diff', 'Dimension', 'DimensionValues', 'Evidence', 'Extractor', 'ExtractorBrief', 'ExtractorList', 'Grid', 'Head', 'Health', 'Keypoints', 'MeasuredConfiguration', 'MetricBrief', 'ModelInfo', 'OpenCV', 'Parameter', 'ParameterBrief', 'Problem', 'Program', 'ProgramInfo', 'ProgramList', 'Proposal', 'Pruned', 'Ready', 'Report', 'ReportList', 'Rule', 'RuleList', 'RuleTable', 'Scoring', 'Selection', 'Session', 'SessionSelection', 'ShaclProcessStatus', 'SparqlBindings', 'SparqlHead', 'SparqlResults', 'StreamPosition', 'Timings', 'Verdict', 'Verification', 'VersionChanges', 'VersionInfo', 'VersionList', 'Versions', 'Vocabulary', 'Weight', 'WriteResult']

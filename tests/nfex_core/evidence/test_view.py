@@ -86,7 +86,7 @@ def test_an_advanced_view_equals_a_fresh_view_after_random_changes(shipped_kg: K
 
 def test_a_compile_carries_the_view_and_answers_as_a_full_compile(shipped_kg: KnowledgeGraph, monkeypatch) -> None:  # type: ignore[no-untyped-def]
     first = compile_table(shipped_kg)
-    assert first.view is not None and not first.view.incremental
+    assert first.carry.view is not None and not first.carry.view.incremental
     writer = ReportWriter(shipped_kg, max_items=1)
     try:
         for reporter in ("r1", "r2", "r3"):  # corroborated by three sources: admitted, so the summaries change
@@ -105,10 +105,10 @@ def test_a_compile_carries_the_view_and_answers_as_a_full_compile(shipped_kg: Kn
     monkeypatch.undo()
     assert reads == [(first.version, shipped_kg.version)], "the index and the view read the change once between them"
     assert sorted(versions) == list(range(first.version + 1, shipped_kg.version + 1)), "each version's change set read once"
-    assert first.view is None, "a view is handed to one compile only"
-    assert carried.view is not None and carried.view.incremental
+    assert first.carry.view is None, "a view is handed to one compile only"
+    assert carried.carry.view is not None and carried.carry.view.incremental
     full = compile_table(shipped_kg)
-    assert _triples(carried.view) == _triples(full.view)  # type: ignore[arg-type]
+    assert _triples(carried.carry.view) == _triples(full.carry.view)  # type: ignore[arg-type]
     assert carried.decisions == full.decisions and carried.errors == full.errors
 
 
@@ -158,11 +158,11 @@ def test_the_rules_decide_on_their_reach_as_on_the_whole_graph(shipped_kg: Knowl
 
     for kg in (shipped_kg, bare_kg):
         within = compile_table(kg)
-        assert within.view is not None and within.view.reach is not None
+        assert within.carry.view is not None and within.carry.view.reach is not None
         with monkeypatch.context() as m:
             m.setattr(engine, "_reach", lambda setup: None)
             whole = compile_table(kg)
-        assert whole.view is not None and whole.view.reach is None
-        assert len(_triples(within.view)) < len(_triples(whole.view))
-        assert within.plain == whole.plain and within.errors == whole.errors
-        assert any(d.pruned for d in within.plain.values())
+        assert whole.carry.view is not None and whole.carry.view.reach is None
+        assert len(_triples(within.carry.view)) < len(_triples(whole.carry.view))
+        assert within.carry.plain == whole.carry.plain and within.errors == whole.errors
+        assert any(d.pruned for d in within.carry.plain.values())

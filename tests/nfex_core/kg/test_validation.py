@@ -277,7 +277,8 @@ def test_the_focus_nodes_a_shape_targets_are_pyshacls(triples, focus) -> None:  
     import rdflib
     from pyshacl.graph_abstraction import DataGraph
 
-    from nfex_core.kg.validation import _Focus, _ShapesGraph, shapes_in
+    from nfex_core.kg.pyshacl_focus import _Focus, _ShapesGraph
+    from nfex_core.kg.validation import shapes_in
 
     ex = rdflib.Namespace("https://example.org/")
     preds = {"type": RDF.type, "subClassOf": RDFS.subClassOf, "p": ex.p, "q": ex.q, "r": ex.r}

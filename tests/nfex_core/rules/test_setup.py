@@ -45,7 +45,7 @@ def _configure(kg: KnowledgeGraph, op: str, rng: random.Random) -> None:
 
 
 def _same(carried: RuleTable, full: RuleTable) -> None:
-    assert carried.plain == full.plain and carried.errors == full.errors  # (``decisions`` gain evidence as contexts are asked)
+    assert carried.carry.plain == full.carry.plain and carried.errors == full.errors  # (``decisions`` gain evidence as contexts are asked)
     assert carried.configurations == full.configurations and carried.observed == full.observed
     assert carried.cost == full.cost and carried.admission == full.admission and carried.budget_terms == full.budget_terms
     for c in CONTEXTS:
@@ -90,13 +90,13 @@ def test_a_report_keeps_the_configuration_stage_and_a_statement_change_reads_it_
     first = compile_table(shipped_kg)
     _reports(shipped_kg, "r1")
     after_report = compile_table(shipped_kg, first)
-    assert after_report.setup is first.setup
-    assert after_report.grouped is not None and after_report.grouped.dirty is not None, "the grouping was carried, not redone"
-    assert sum(map(len, after_report.grouped.dirty.values())) <= 12  # the groups of one report, not all
+    assert after_report.carry.setup is first.carry.setup
+    assert after_report.carry.grouped is not None and after_report.carry.grouped.dirty is not None, "the grouping was carried, not redone"
+    assert sum(map(len, after_report.carry.grouped.dirty.values())) <= 12  # the groups of one report, not all
     row = shipped_kg.select("SELECT ?s WHERE { ?s nfex:inProgram ?p }").rows[0]
     shipped_kg.update(PREFIXES + f"DELETE WHERE {{ <{row['s']}> ?p ?o }}", author="pytest")
     after_edit = compile_table(shipped_kg, after_report)
-    assert after_edit.setup is not after_report.setup
+    assert after_edit.carry.setup is not after_report.carry.setup
     _same(after_edit, compile_table(shipped_kg))
 
 
@@ -168,7 +168,7 @@ def test_a_change_a_rule_reads_runs_it_again(shipped_kg: KnowledgeGraph) -> None
     shipped_kg.update(PREFIXES + f"DELETE {{ <{m}> nfex:ateRmse ?a }} INSERT {{ <{m}> nfex:ateRmse '5000.0'^^xsd:double }} WHERE {{ <{m}> nfex:ateRmse ?a }}",
                       author="pytest")
     carried = compile_table(shipped_kg, table)
-    assert carried.setup is table.setup, "an ATE changed is evidence"
+    assert carried.carry.setup is table.carry.setup, "an ATE changed is evidence"
     assert "ORB" not in carried.decide({"agent": "car"}).candidates
     _same(carried, compile_table(shipped_kg))
 
@@ -249,7 +249,7 @@ def test_under_a_stream_of_reports_each_compile_carries_the_last(shipped_kg: Kno
 
     monkeypatch.setattr(ObservationIndex, "advance", after_a_commit)
     table = compile_table(shipped_kg)
-    first = table.setup
+    first = table.carry.setup
     writer = ReportWriter(shipped_kg, max_items=4)
 
     def stream() -> None:
@@ -270,7 +270,7 @@ def test_under_a_stream_of_reports_each_compile_carries_the_last(shipped_kg: Kno
             if shipped_kg.version != table.version:
                 table = compile_table(shipped_kg, table)
                 compiles += 1
-                carried += table.setup is first and table.view is not None and table.view.incremental and table.view.version >= 0
+                carried += table.carry.setup is first and table.carry.view is not None and table.carry.view.incremental and table.carry.view.version >= 0
                 if compiles >= 3:
                     enough.set()
     finally:
@@ -278,7 +278,7 @@ def test_under_a_stream_of_reports_each_compile_carries_the_last(shipped_kg: Kno
         writer.close()
     table = compile_table(shipped_kg, table)
     assert compiles >= 3 and carried == compiles, (carried, compiles)
-    assert table.setup is first
+    assert table.carry.setup is first
     _same(table, compile_table(shipped_kg))
 
 
@@ -292,7 +292,7 @@ def test_an_editors_change_that_no_rule_reads_keeps_every_rules_hits(shipped_kg:
     row = shipped_kg.select("SELECT ?s WHERE { ?s nfex:inProgram ?p } ORDER BY ?s").rows[0]
     shipped_kg.update(PREFIXES + f"DELETE WHERE {{ <{row['s']}> ?p ?o }}", author="pytest")
     table = compile_table(shipped_kg, table)
-    assert ran == [] and table.setup is not None
+    assert ran == [] and table.carry.setup is not None
     _same(table, compile_table(shipped_kg))
     ran.clear()
     _configure(shipped_kg, "threshold", random.Random(1))
