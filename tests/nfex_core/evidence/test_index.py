@@ -99,10 +99,11 @@ def test_a_report_rereads_only_its_own_measurement_and_the_compiled_table_equals
         writer.close()
     carried = compile_table(shipped_kg, first)
     full = compile_table(shipped_kg)
-    assert carried.index is not None and full.index is not None
-    assert 1 <= carried.index.reread <= 5  # the Measurement and the new nodes it brought (run, sequence, …)
-    assert carried.index.reread > -1 and full.index.reread == -1
-    _same(carried.index, full.index)
+    assert carried.carry is not None and full.carry is not None  # what each compile hands the next
+    kept, fresh = carried.carry.index, full.carry.index
+    assert 1 <= kept.reread <= 5  # the Measurement and the new nodes it brought (run, sequence, …)
+    assert kept.reread > -1 and fresh.reread == -1
+    _same(kept, fresh)
     assert carried.decisions == full.decisions
     assert carried.configurations == full.configurations and carried.observed == full.observed
     assert carried.cost == full.cost and carried.admission == full.admission
