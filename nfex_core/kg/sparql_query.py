@@ -1,7 +1,7 @@
-"""Small facts about SPARQL text: which form a query has, and the prefixes nFEX predeclares.
+"""Small facts about SPARQL text: the prefixes nFEX predeclares, and parse errors placed in the user's lines.
 
-Used at the edges (CLI, HTTP endpoint) to refuse updates on read-only paths before they reach a store
-and to let users write ``nfex:ORB`` without a PREFIX line.
+Used at the edges (CLI, HTTP endpoint) to let users write ``nfex:ORB`` without a PREFIX line. What a text is and
+whether it may run is the gate's to say (sparql_gate.py).
 """
 from __future__ import annotations
 
@@ -11,10 +11,7 @@ from collections.abc import Callable
 from ..errors import BadInput, ParseError
 from ..namespaces import PREFIXES
 
-_PROLOGUE = re.compile(r"^(?:\s*(?:PREFIX\s+[A-Za-z0-9_.-]*:\s*<[^>]*>|BASE\s*<[^>]*>))*\s*", re.IGNORECASE)
 _DECLARED = re.compile(r"PREFIX\s+([A-Za-z0-9_.-]*):", re.IGNORECASE)
-_FORMS = ("select", "ask", "construct", "describe")
-_UPDATES = ("insert", "delete", "load", "clear", "drop", "create", "add", "move", "copy", "with")
 
 
 def strip_comments(text: str) -> str:
@@ -49,18 +46,6 @@ def strip_comments(text: str) -> str:
             out.append(c)
         i += 1
     return "".join(out)
-
-
-def classify(query: str) -> str:
-    """``select`` | ``ask`` | ``construct`` | ``describe``; updates and anything else raise BadInput."""
-    body = _PROLOGUE.sub("", strip_comments(query), count=1)
-    word = re.match(r"[A-Za-z]+", body)
-    keyword = word.group(0).lower() if word else ""
-    if keyword in _FORMS:
-        return keyword
-    if keyword in _UPDATES:
-        raise BadInput("this is a SPARQL Update; queries are read-only here (use `nfex kg update` or POST /sparql/update)")
-    raise BadInput("not a SPARQL query: expected SELECT, ASK, CONSTRUCT or DESCRIBE after the prologue")
 
 
 def prefix_head(query: str) -> str:
@@ -114,12 +99,14 @@ def _oxigraph_position(text: str) -> tuple[int, int] | None:
     Only called on an error path; the text runs against an empty in-memory store, so nothing is read or changed."""
     import pyoxigraph
 
+    from .sparql_gate import gate_query
+
     store = pyoxigraph.Store()
     run: Callable[[str], object]
     try:
-        classify(text)
+        gate_query(text)  # the text passed the gate already; this says whether it is a query
         run = store.query
-    except BadInput:  # an update, or not parseable as either: the update parser names the position
+    except BadInput:  # an update: the update parser names the position
         run = store.update
     try:
         run(text)
