@@ -29,6 +29,7 @@ def test_serve_starts_on_an_empty_home(tmp_path: Path, record_property: pytest.R
         env=env, stdout=log.open("wb"), stderr=subprocess.STDOUT,
     )
     url = f"http://127.0.0.1:{port}/readyz"
+    checkpoints = home / ".local" / "share" / "nfex" / ".store.query-checkpoints"
     try:
         deadline = t0 + 120
         status = None
@@ -49,5 +50,11 @@ def test_serve_starts_on_an_empty_home(tmp_path: Path, record_property: pytest.R
         assert (home / ".local" / "share" / "nfex" / "store").is_dir()
         compiled = home / ".cache" / "nfex" / "compiled"
         assert len(list(compiled.glob("*.pickle"))) == 1 and compiled.stat().st_mode & 0o777 == 0o700
+        # a SPARQL query runs in a worker process over a checkpoint beside the store, removed at shutdown
+        r = httpx.get(f"http://127.0.0.1:{port}/sparql", params={"query": "SELECT ?x WHERE { ?x a nfex:FeatureExtractor }"},
+                      headers={"Accept": "application/sparql-results+json"}, timeout=30)
+        assert r.status_code == 200 and r.json()["results"]["bindings"], r.text[:300]
+        assert checkpoints.is_dir()
     finally:
         stop_process(proc)
+    assert not checkpoints.exists(), "the query checkpoints outlived the service"
