@@ -26,18 +26,16 @@ checks that the gate and Oxigraph agree on whether a text holds a forbidden oper
 from __future__ import annotations
 
 import warnings
+from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from rdflib.namespace import SH
 from rdflib.term import Literal
 
 from ..errors import BadInput, ParseError
 from ..namespaces import NFEX
-
-if TYPE_CHECKING:
-    from .changes import ChangeSet
 
 MAX_CHARS = 200_000
 MAX_DEPTH = 400
@@ -210,10 +208,10 @@ def _refusal(found: list[str], update: bool) -> ForbiddenOperation:
     )
 
 
-def gate_change(change: ChangeSet) -> None:
-    """Refuse a write that stores SPARQL text nFEX would later run (a rule's ``nfex:query``, a SHACL
-    constraint's ``sh:select``/``sh:ask``/``sh:update``) that the gate would not let through."""
-    for _, p, o in change.added:
+def gate_change(added: Iterable[tuple[Any, Any, Any]]) -> None:
+    """Refuse a write whose ``added`` triples store SPARQL text nFEX would later run (a rule's ``nfex:query``, a
+    SHACL constraint's ``sh:select``/``sh:ask``/``sh:update``) that the gate would not let through."""
+    for _, p, o in added:
         if isinstance(o, Literal) and (p in EXECUTED_QUERIES or p in EXECUTED_UPDATES):
             try:
                 (gate_update if p in EXECUTED_UPDATES else gate_query)(str(o))

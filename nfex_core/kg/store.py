@@ -272,7 +272,7 @@ class KnowledgeGraph(Derived):
     def _refuse(change: ChangeSet) -> None:
         if any(isinstance(x, rdflib.BNode) for t in change.added | change.removed for x in t):
             raise BadInput("change sets must not contain blank nodes; build them with graph_triples()")
-        gate_change(change)
+        gate_change(change.added)
 
     def load_validated(self, content: ChangeText, *, author: str, message: str = "") -> CommitResult:
         """Write ``content`` into an empty store as version 1, without validating it here.

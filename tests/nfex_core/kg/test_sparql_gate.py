@@ -138,15 +138,15 @@ def test_every_shipped_rule_passes_the_gate_well_within_its_bound() -> None:
 def test_stored_sparql_is_checked_on_commit() -> None:
     rule = ChangeSet.adding([(NFEX.rule_x, NFEX.query, Literal("SELECT * { SERVICE <http://x> { } }"))])
     with pytest.raises(ForbiddenOperation):
-        gate_change(rule)
+        gate_change(rule.added)
     hidden = ChangeSet.adding([(NFEX.rule_x, NFEX.query, Literal(
         "PREFIX ex: <http://e/> SELECT ?extractor ?reason { ?extractor ex:a\\# ?reason SERVICE <http://x> { } }"))])
     with pytest.raises(ForbiddenOperation):
-        gate_change(hidden)
+        gate_change(hidden.added)
     shape = ChangeSet.adding([(URIRef("urn:c"), SH.update, Literal("INSERT DATA { <a:a> <a:b> 1 } ; LOAD <http://x>"))])
     with pytest.raises(ForbiddenOperation):
-        gate_change(shape)
-    gate_change(ChangeSet.adding([(NFEX.ORB, NFEX.query, Literal("SELECT ?extractor ?reason { }"))]))
+        gate_change(shape.added)
+    gate_change(ChangeSet.adding([(NFEX.ORB, NFEX.query, Literal("SELECT ?extractor ?reason { }"))]).added)
 
 
 # -- the gate and Oxigraph agree on what a text is ------------------------------------------------------------
