@@ -14,6 +14,7 @@ WORKDIR /src
 COPY pyproject.toml README.md ./
 COPY nfex_core ./nfex_core
 COPY service ./service
+COPY cli ./cli
 COPY clients/slam/nfex_slam ./clients/slam/nfex_slam
 COPY ontology ./ontology
 COPY rules ./rules

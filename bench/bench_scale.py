@@ -158,7 +158,7 @@ def start_nfex(env: dict[str, str], log: Path, timeout: float) -> tuple[subproce
     """`nfex serve` on a free port: the process, its URL, and seconds from starting it to ``/readyz`` 200."""
     port = free_port()
     t = time.perf_counter()
-    svc = subprocess.Popen([sys.executable, "-m", "nfex_core.cli.main", "serve", "--port", str(port), "--log-level", "warning"],
+    svc = subprocess.Popen([sys.executable, "-m", "cli.main", "serve", "--port", str(port), "--log-level", "warning"],
                            env=env, stdout=log.open("ab"), stderr=subprocess.STDOUT)
     base = f"http://127.0.0.1:{port}"
     try:

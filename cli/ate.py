@@ -6,7 +6,8 @@ from typing import Annotated
 
 import typer
 
-from ..errors import UnknownName
+from nfex_core.errors import UnknownName
+
 from .common import echo_json
 
 STAT_KEYS = ("rmse", "mean", "median", "std", "min", "max", "sse")

@@ -7,10 +7,10 @@ from typing import TYPE_CHECKING, Any
 
 import typer
 
-from ..config import Settings
+from nfex_core.config import Settings
 
 if TYPE_CHECKING:
-    from ..kg import KnowledgeGraph
+    from nfex_core.kg import KnowledgeGraph
 
 STORE_HELP = "A folder (embedded store) or an http(s) SPARQL endpoint; default $NFEX_STORE."
 
@@ -29,7 +29,7 @@ def settings() -> Settings:
 
 def open_kg(seed: bool = True) -> KnowledgeGraph:
     """The store named by ``--store`` / NFEX_STORE, seeded first if it is empty (unless ``seed`` is False)."""
-    from ..knowledge import open_graph
+    from nfex_core.knowledge import open_graph
 
     return open_graph(state.store, seed_empty=seed)
 

@@ -8,7 +8,8 @@ from typing import Annotated
 
 import typer
 
-from ..errors import BadInput
+from nfex_core.errors import BadInput
+
 from .common import echo_json, open_kg
 from .sweep import split_values
 
@@ -50,10 +51,10 @@ def evaluate(
     transition rows under a schedule, ms/frame — per sequence (each held out of the graph) and pooled."""
     import json
 
-    from ..config import Settings
-    from ..evaluation import csv_text, frames_csv, known_methods, selections_csv
-    from ..evaluation.pooled import concat_csv, evaluate_sequences, study_json, study_markdown
-    from ..evaluation.sources import from_arguments, read_manifest
+    from nfex_core.config import Settings
+    from nfex_core.evaluation import csv_text, frames_csv, known_methods, selections_csv
+    from nfex_core.evaluation.pooled import concat_csv, evaluate_sequences, study_json, study_markdown
+    from nfex_core.evaluation.sources import from_arguments, read_manifest
 
     if runs < 1:
         raise BadInput("--runs must be at least 1")
@@ -76,7 +77,7 @@ def evaluate(
             if m not in known:
                 raise BadInput(f"unknown method {m!r}; known: {', '.join(known)}")
         if not methods:  # the default list leaves out what cannot run here (a learned extractor without its extra)
-            from ..vision.backends import unavailable
+            from nfex_core.vision.backends import unavailable
 
             absent = {x.lower(): why for x, why in unavailable(vocab.extractors, kg.settings).items()}
             for m in [m for m in chosen if m.rpartition("-")[0] in absent]:
@@ -97,7 +98,7 @@ def evaluate(
     (out / "frames.csv").write_text(concat_csv([frames_csv(ev) for ev in evs]))
     (out / "selections.csv").write_text(concat_csv([selections_csv(ev) for ev in evs]))
     if plots:
-        from ..evaluation.plots import draw
+        from nfex_core.evaluation.plots import draw
 
         result["plots"] = [str(p) for ev in evs
                            for p in draw(ev, out if len(evs) == 1 else out / ev.label.replace("/", "-"))]

@@ -22,7 +22,7 @@ ExpectOpt = Annotated[
 def _files_graph(files: list[Path]):
     import rdflib
 
-    from ..kg import read_rdf_file
+    from nfex_core.kg import read_rdf_file
 
     g = rdflib.Graph()
     for f in files:
@@ -74,7 +74,7 @@ def update(
     expect_version: ExpectOpt = None,
 ) -> None:
     """Run a SPARQL 1.1 Update as one checked transaction."""
-    from ..kg.sparql_query import with_prefixes
+    from nfex_core.kg.sparql_query import with_prefixes
 
     kg = open_kg()
     report_commit(kg.update(with_prefixes(update), author=author_of(author), message=message, expected_version=expect_version), "update")
@@ -104,7 +104,7 @@ def diff(
     since: Annotated[int | None, typer.Option(help="…or the net change from version SINCE to VERSION.")] = None,
 ) -> None:
     """Print a version's change set as N-Triples lines prefixed with + and −."""
-    from ..kg.terms import triple_n3
+    from nfex_core.kg.terms import triple_n3
 
     kg = open_kg()
     change = kg.diff(since, version) if since is not None else kg.changes(version)
@@ -141,7 +141,7 @@ def export(
     """Export the knowledge (the default graph) — it opens in Protégé and re-imports with `kg add`."""
     kg = open_kg()
     if owl:
-        from ..kg.owl import owl_only
+        from nfex_core.kg.owl import owl_only
 
         text = owl_only(kg.data_graph()).serialize(format=format.value)
     else:
@@ -156,7 +156,7 @@ def export(
 @app.command()
 def seed() -> None:
     """Bring the graph in line with ontology/ and rules/ (adds what is new, removes what was deleted)."""
-    from ..knowledge import seed as do_seed
+    from nfex_core.knowledge import seed as do_seed
 
     kg = open_kg(seed=False)
     report_commit(do_seed(kg), "seeded from ontology/ and rules/")

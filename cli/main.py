@@ -8,7 +8,8 @@ from typing import Annotated
 import click
 import typer
 
-from ..errors import NfexError
+from nfex_core.errors import NfexError
+
 from . import ate, evaluate, kg, program, select, serve, sparql, sweep, train, validate
 from .common import STORE_HELP, err, state
 
@@ -23,7 +24,7 @@ app = typer.Typer(
 
 def _version(value: bool) -> None:
     if value:
-        from .. import __version__
+        from nfex_core import __version__
 
         typer.echo(f"nfex {__version__}")
         raise typer.Exit()

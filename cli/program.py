@@ -6,7 +6,8 @@ from typing import Annotated
 
 import typer
 
-from ..errors import NotFound
+from nfex_core.errors import NotFound
+
 from .common import author as author_of
 from .common import echo_json, err, open_kg, settings, table
 from .common import table as table_of
@@ -22,9 +23,9 @@ def check(file: FileArg) -> None:
 
     Exit 0 when the program is valid, 2 on a syntax error, an unknown name or a number out of range.
     """
-    from ..rules.dsl.check import problems
-    from ..rules.dsl.parser import parse_file
-    from ..rules.dsl.programs import source_name
+    from nfex_core.rules.dsl.check import problems
+    from nfex_core.rules.dsl.parser import parse_file
+    from nfex_core.rules.dsl.programs import source_name
 
     program = parse_file(file, source=source_name(file, settings()))
     vocab = open_kg().vocabulary()
@@ -57,7 +58,8 @@ def apply(
     expect_version: Annotated[int | None, typer.Option("--expect-version", help="Refuse (exit 5) unless the graph is at this version.")] = None,
 ) -> None:
     """Check FILE and replace that program's statements in the graph as one versioned transaction."""
-    from ..rules.dsl import programs
+    from nfex_core.rules.dsl import programs
+
     from .kg import report_commit
 
     file = shipped_or_file(file)
@@ -76,8 +78,8 @@ def show(
     shapes: Annotated[bool, typer.Option("--shapes", help="Also print each require's SHACL shape, read back as a DSL line.")] = False,
 ) -> None:
     """Print a program's text as the graph holds it (read back from its triples)."""
-    from ..rules.dsl import programs
-    from ..rules.dsl.parser import render
+    from nfex_core.rules.dsl import programs
+    from nfex_core.rules.dsl.parser import render
 
     kg = open_kg()
     names = [name] if name else [p.name for p in programs.programs(kg)]
@@ -85,7 +87,7 @@ def show(
         raise NotFound("the graph holds no program")
     typer.echo("\n".join(render(programs.show(kg, n)) for n in names), nl=False)
     if shapes:
-        from ..rules.shape_text import program_shapes
+        from nfex_core.rules.shape_text import program_shapes
 
         for n in names:
             for _, line in program_shapes(kg, n):
@@ -95,7 +97,7 @@ def show(
 @app.command("list")
 def list_(as_json: Annotated[bool, typer.Option("--json", help="JSON instead of a table.")] = False) -> None:
     """The programs in the graph, with their statement counts and source files."""
-    from ..rules.dsl import programs
+    from nfex_core.rules.dsl import programs
 
     infos = programs.programs(open_kg())
     if as_json:
@@ -111,7 +113,7 @@ def remove(
     author: Annotated[str | None, typer.Option("--author")] = None,
 ) -> None:
     """Remove a program and all its statements as one transaction."""
-    from ..rules.dsl import programs
+    from nfex_core.rules.dsl import programs
 
     kg = open_kg()
     if name not in {p.name for p in programs.programs(kg)}:
@@ -130,11 +132,11 @@ def learn_verification(
 ) -> None:
     """Fit the verification program (accept pair if …, escalate at most N) to the sweeps' pair outcomes
     (nfex_core/sweeps/verification.py), check it against the graph and write it to OUT."""
-    from ..errors import BadInput
-    from ..rules.dsl.check import check as check_program
-    from ..rules.dsl.parser import parse
-    from ..sweeps.table import pairs_path
-    from ..sweeps.verification import learn
+    from nfex_core.errors import BadInput
+    from nfex_core.rules.dsl.check import check as check_program
+    from nfex_core.rules.dsl.parser import parse
+    from nfex_core.sweeps.table import pairs_path
+    from nfex_core.sweeps.verification import learn
 
     pair_tables = [pairs_path(t) for t in table]
     missing = [str(p) for p in pair_tables if not p.exists()]

@@ -6,11 +6,12 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from ..errors import BadInput, DataMissing
+from nfex_core.errors import BadInput, DataMissing
+
 from .common import echo_json, open_kg, table
 
 if TYPE_CHECKING:
-    from ..advisor import Selection
+    from nfex_core.advisor import Selection
 
 
 def parse_context(text: str) -> dict[str, str]:
@@ -85,7 +86,7 @@ def select(
     as_json: Annotated[bool, typer.Option("--json", help="Print the full selection as JSON.")] = False,
 ) -> None:
     """Choose the extractor α* and its parameters Θ′ for FRAME and a context, with the reasons."""
-    from ..advisor import Advisor
+    from nfex_core.advisor import Advisor
 
     given = parse_context(context)
     if previous is not None and frame is None:

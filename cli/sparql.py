@@ -10,7 +10,8 @@ from typing import Annotated
 import typer
 from rdflib.term import Literal, Node, URIRef
 
-from ..errors import BadInput
+from nfex_core.errors import BadInput
+
 from .common import echo_json, open_kg, table
 
 
@@ -44,9 +45,9 @@ def sparql(
     format: Annotated[Format, typer.Option("--format", help="Output format for SELECT/ASK results.")] = Format.table,
 ) -> None:
     """Run a SPARQL 1.1 query against the knowledge graph (read-only)."""
-    from ..kg.sparql_gate import gate_query
-    from ..kg.sparql_query import with_prefixes
-    from ..namespaces import PREFIXES
+    from nfex_core.kg.sparql_gate import gate_query
+    from nfex_core.kg.sparql_query import with_prefixes
+    from nfex_core.namespaces import PREFIXES
 
     if (query is None) == (file is None):
         raise BadInput("give a query or --file, not both and not neither")
@@ -71,7 +72,7 @@ def sparql(
         return
     result = kg.backend.select(text)
     if format is Format.json:
-        from ..kg.backends import json_bindings
+        from nfex_core.kg.backends import json_bindings
 
         echo_json(json_bindings(result))
     elif format is Format.csv:

@@ -9,7 +9,8 @@ from typing import Annotated
 
 import typer
 
-from ..errors import BadInput
+from nfex_core.errors import BadInput
+
 from .common import author as author_of
 from .common import echo_json, open_kg
 
@@ -53,8 +54,8 @@ def sweep(
     progress: Annotated[bool, typer.Option(help="Show a progress bar with ETA.")] = True,
 ) -> None:
     """Run the VO for every cell of the grid, write Measurements (one transaction per batch) and the table."""
-    from ..sweeps import RunInfo, SweepSpec, export_measurements
-    from ..sweeps import sweep as run_sweep
+    from nfex_core.sweeps import RunInfo, SweepSpec, export_measurements
+    from nfex_core.sweeps import sweep as run_sweep
 
     if not path.is_dir():
         raise BadInput(f"{path}: not a folder")
@@ -73,7 +74,7 @@ def sweep(
         counts = run_sweep(spec, kg, csv, run=run, executor=executor.value, workers=workers, address=address,
                            batch=batch, author=author_of(author), progress=progress)
         if export is not None:
-            from ..sweeps.table import read as read_rows
+            from nfex_core.sweeps.table import read as read_rows
 
             counts["exported_triples"] = export_measurements(kg, export, cells=[str(r["cell"]) for r in read_rows(csv)])
     finally:

@@ -7,7 +7,8 @@ from typing import Annotated
 
 import typer
 
-from ..errors import BadInput, DataMissing
+from nfex_core.errors import BadInput, DataMissing
+
 from .common import err, open_kg, settings
 
 
@@ -34,7 +35,7 @@ def train(
         if not t.is_file():
             raise DataMissing(f"no training table at {t}")
     try:
-        from ..neural.train import train as run
+        from nfex_core.neural.train import train as run
     except ImportError as e:  # torch is a training-only dependency
         raise BadInput(f"training needs torch (pip install 'nfex[train]'): {e}") from None
     s = settings()
@@ -51,7 +52,7 @@ def train(
         )  # fmt: skip
     except ValueError as e:
         raise BadInput(str(e)) from None
-    from ..neural.artifacts import NeuralModel
+    from nfex_core.neural.artifacts import NeuralModel
 
     gates = NeuralModel.load(report.path).validation_gates()
     typer.echo(json.dumps({"model": str(report.path), "split": report.split, "windows": report.windows,

@@ -316,5 +316,5 @@ def cli_env(store_path: Path) -> dict[str, str]:
 
 def run_cli(args: list[str], env: dict[str, str], input: str | None = None) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [sys.executable, "-m", "nfex_core.cli.main", *args], env=env, capture_output=True, text=True, input=input, timeout=120
+        [sys.executable, "-m", "cli.main", *args], env=env, capture_output=True, text=True, input=input, timeout=120
     )

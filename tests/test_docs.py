@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 import typer
 
-from nfex_core.cli.main import app
+from cli.main import app
 from service.config import Settings as ServiceSettings
 
 REPO = Path(__file__).resolve().parent.parent
@@ -96,7 +96,7 @@ def _variables_read() -> set[str]:
     """``NFEX_*`` names in the code that reads settings (core, service, CLI, the test switch), and the service's
     settings fields (pydantic-settings reads ``NFEX_<FIELD>``)."""
     names: set[str] = set()
-    for folder in ("nfex_core", "service", "tests"):
+    for folder in ("nfex_core", "service", "cli", "tests"):
         for source in (REPO / folder).rglob("*.py"):
             names |= set(re.findall(r"[\"'](NFEX_[A-Z0-9_]+)[\"']", source.read_text()))
     names |= {f"NFEX_{field.upper()}" for field in ServiceSettings.model_fields}

@@ -144,7 +144,7 @@ def test_version(cli_env: dict[str, str]) -> None:
 def test_shell_completion(cli_env: dict[str, str]) -> None:
     # as a user runs it from bash (typer detects the shell from the parent process; `; exit` keeps bash
     # from exec-ing the command in its place)
-    script = subprocess.run(["bash", "-c", '"$0" -m nfex_core.cli.main --show-completion; exit $?', sys.executable],
+    script = subprocess.run(["bash", "-c", '"$0" -m cli.main --show-completion; exit $?', sys.executable],
                             env=cli_env, capture_output=True, text=True, timeout=120)
     assert script.returncode == 0, script.stderr
     assert "_nfex_completion" in script.stdout and "complete " in script.stdout

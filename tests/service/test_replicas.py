@@ -56,7 +56,7 @@ def replicas(shipped_server: SparqlServer, tmp_path_factory: pytest.TempPathFact
         for i in range(REPLICAS):
             port = free_port()
             procs.append(subprocess.Popen(
-                [sys.executable, "-m", "nfex_core.cli.main", "serve", "--port", str(port), "--log-level", "info"],
+                [sys.executable, "-m", "cli.main", "serve", "--port", str(port), "--log-level", "info"],
                 env=env, stdout=(folder / f"replica-{i}.log").open("wb"), stderr=subprocess.STDOUT))
             urls.append(f"http://127.0.0.1:{port}")
         deadline = time.monotonic() + 120

@@ -113,7 +113,7 @@ def test_cli_train_writes_a_loadable_model(tmp_path: Path, store_path: Path, voc
     table = make_table(tmp_path / "t.csv", vocab, windows=4)
     out = tmp_path / "model"
     p = subprocess.run(
-        [sys.executable, "-m", "nfex_core.cli.main", "--store", str(store_path), "train", "--table", str(table),
+        [sys.executable, "-m", "cli.main", "--store", str(store_path), "train", "--table", str(table),
          "--out", str(out), "--epochs", "3", "--no-images", "--val-sequences", "00", "--refit-all"],
         capture_output=True, text=True, timeout=120,
     )  # fmt: skip
@@ -132,7 +132,7 @@ def test_auto_epochs() -> None:
 
 def test_cli_train_missing_table_exits_2(tmp_path: Path, store_path: Path) -> None:
     p = subprocess.run(
-        [sys.executable, "-m", "nfex_core.cli.main", "--store", str(store_path), "train", "--table", str(tmp_path / "no.csv")],
+        [sys.executable, "-m", "cli.main", "--store", str(store_path), "train", "--table", str(tmp_path / "no.csv")],
         capture_output=True, text=True, timeout=60,
     )  # fmt: skip
     assert p.returncode == 2 and "no training table" in p.stderr
