@@ -98,7 +98,7 @@ def evaluate(
     (out / "frames.csv").write_text(concat_csv([frames_csv(ev) for ev in evs]))
     (out / "selections.csv").write_text(concat_csv([selections_csv(ev) for ev in evs]))
     if plots:
-        from nfex_core.evaluation.plots import draw
+        from .plots import draw
 
         result["plots"] = [str(p) for ev in evs
                            for p in draw(ev, out if len(evs) == 1 else out / ev.label.replace("/", "-"))]

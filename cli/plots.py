@@ -1,17 +1,17 @@
-"""Plots of an evaluation (matplotlib, imported here only): trajectories against the ground truth, the front-end
-figures (pose AUC@5/10/20° with 95 % intervals per method and condition; the cumulative pair-error curves of
-run 0), mean ATE with its 95 % interval per method and condition, the configuration nFEX ran per frame against
-the schedule, and accuracy against cost."""
+"""Plots of an evaluation, drawn by ``nfex evaluate --plots`` (matplotlib, imported here only; nfex_core never
+imports it): trajectories against the ground truth, the front-end figures (pose AUC@5/10/20° with 95 % intervals
+per method and condition; the cumulative pair-error curves of run 0), mean ATE with its 95 % interval per method
+and condition, the configuration nFEX ran per frame against the schedule, and accuracy against cost."""
 from __future__ import annotations
 
 from pathlib import Path
 
 import numpy as np
 
-from .methods import NFEX, ORACLES
-from .report import display
-from .run import SCHEDULE, Evaluation
-from .stats import summary
+from nfex_core.evaluation.methods import NFEX, ORACLES
+from nfex_core.evaluation.report import display
+from nfex_core.evaluation.run import SCHEDULE, Evaluation
+from nfex_core.evaluation.stats import summary
 
 
 def _aligned(ev: Evaluation, poses: np.ndarray) -> np.ndarray:
@@ -116,7 +116,7 @@ def draw(ev: Evaluation, out: Path) -> list[Path]:
 def _frontend_plots(ev: Evaluation, out: Path, cond: str) -> list[Path]:
     import matplotlib.pyplot as plt
 
-    from .figures import BY_NAME
+    from nfex_core.evaluation.figures import BY_NAME
 
     keys = ev.keys()
     fig, axes = plt.subplots(1, 3, figsize=(max(12, 1.2 * len(keys)), 4), sharey=True)
