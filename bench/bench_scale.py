@@ -101,7 +101,7 @@ def seed_store(location: str, lines: list[str], settings: Settings) -> float:
     client without the default 30 s limit per request: moving 300k staged statements in is one long update."""
     t = time.perf_counter()
     idle_tail = 0.0
-    settings = dataclasses.replace(settings, store=location)
+    settings = settings.replace(store=location)
     if location.startswith("http"):
         kg = KnowledgeGraph(RemoteBackend(location, timeout_s=3600), settings)
     else:
@@ -318,7 +318,7 @@ def main() -> None:
         if args.plot is not None:
             plot(replotted, args.plot)
         return
-    settings = dataclasses.replace(Settings.from_env(), home=ROOT)
+    settings = Settings.from_env().replace(home=ROOT)
     work = Path(tempfile.mkdtemp(prefix="nfex-bench-scale-"))
     rows: list[Row] = []
     try:

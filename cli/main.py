@@ -32,7 +32,7 @@ def _version(value: bool) -> None:
 
 @app.callback()
 def _options(
-    store: Annotated[str | None, typer.Option("--store", envvar="NFEX_STORE", help=STORE_HELP)] = None,
+    store: Annotated[str | None, typer.Option("--store", help=STORE_HELP)] = None,
     debug: Annotated[bool, typer.Option("--debug", help="Print tracebacks.")] = False,
     version: Annotated[
         bool, typer.Option("--version", callback=_version, is_eager=True, help="Print the version and exit.")

@@ -7,22 +7,26 @@ import typer
 
 
 def serve(
-    host: Annotated[str, typer.Option(envvar="NFEX_HOST", help="Interface to bind.")] = "127.0.0.1",
-    port: Annotated[int, typer.Option(envvar="NFEX_PORT", help="Port to bind.")] = 8000,
+    host: Annotated[str | None, typer.Option(help="Interface to bind; default $NFEX_HOST, else 127.0.0.1.")] = None,
+    port: Annotated[int | None, typer.Option(help="Port to bind; default $NFEX_PORT, else 8000.")] = None,
     workers: Annotated[int, typer.Option(help="Worker processes (remote store only: an embedded store has one writer).")] = 1,
-    log_level: Annotated[str, typer.Option(envvar="NFEX_LOG_LEVEL")] = "info",
+    log_level: Annotated[str | None, typer.Option(help="uvicorn's log level; default $NFEX_LOG_LEVEL, else info.")] = None,
 ) -> None:
     """Run the nFEX HTTP service (the store comes from --store / $NFEX_STORE)."""
     import uvicorn
 
+    from service.config import Settings
+
     from .common import state
 
+    # the service's settings, read once from NFEX_*; the options given here win over them
+    settings = Settings(store=state.store) if state.store else Settings()
+    host, port, log_level = host or settings.host, port or settings.port, log_level or settings.log_level
     # the app logs JSON itself (service/observability.py): keep uvicorn from installing its own handlers
     if workers == 1:  # the settings go to the app object directly
-        from service.config import Settings
         from service.main import create_app
 
-        app = create_app(Settings(store=state.store) if state.store else Settings())
+        app = create_app(settings.replace(host=host, port=port, log_level=log_level))
         uvicorn.run(app, host=host, port=port, log_level=log_level, log_config=None, access_log=False)
         return
     # several workers are processes that import the factory: only the environment reaches them

@@ -115,7 +115,7 @@ def bare_template(seeded_template: Path) -> tuple[Path, Settings]:
 @pytest.fixture(scope="session")
 def shipped_template(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Settings]:
     """A store seeded from this checkout's ontology/ and rules/ *with* the shipped sweeps' Measurements."""
-    settings = dataclasses.replace(Settings.from_env(), home=REPO)
+    settings = Settings.from_env().replace(home=REPO)
     path = tmp_path_factory.mktemp("shipped") / "store"
     graph = open_graph(str(path), settings=settings)
     graph.backend.flush()  # type: ignore[attr-defined]
@@ -180,7 +180,7 @@ class SparqlServer:
     """the further ``NFEX_STORE_*`` settings this server needs (update endpoint, credentials, named graph)"""
 
     def settings(self) -> Settings:
-        base = dataclasses.replace(Settings.from_env(), store=self.url)
+        base = Settings.from_env().replace(store=self.url)
         fields = {name: self.env.get(f"NFEX_{name.upper()}") for name in ("store_update", "store_user", "store_password", "store_graph")}
         return dataclasses.replace(base, **fields)
 

@@ -1,7 +1,6 @@
 """The seed is computed once per content: a cache named by a digest of the files and the code."""
 from __future__ import annotations
 
-import dataclasses
 import shutil
 from pathlib import Path
 
@@ -18,7 +17,7 @@ def settings_in(tmp_path: Path) -> Settings:
     home = tmp_path / "home"
     shutil.copytree(real.ontology_dir, home / "ontology")
     shutil.copytree(real.rules_dir, home / "rules")
-    return dataclasses.replace(real, home=home, seed_cache=tmp_path / "cache")
+    return real.replace(home=home, seed_cache=tmp_path / "cache")
 
 
 def test_the_cache_gives_back_the_computed_seed(tmp_path: Path) -> None:
@@ -39,7 +38,7 @@ def test_an_edited_file_is_another_seed(tmp_path: Path) -> None:
 
 
 def test_a_cache_that_cannot_be_written_costs_only_time(tmp_path: Path) -> None:
-    settings = dataclasses.replace(settings_in(tmp_path), seed_cache=tmp_path / "a-file" / "seed")
+    settings = settings_in(tmp_path).replace(seed_cache=tmp_path / "a-file" / "seed")
     (tmp_path / "a-file").write_text("not a folder")
     content = seed_content(settings, seed_graph)
     assert not content.cached and content.triples() == graph_triples(seed_graph(settings))
