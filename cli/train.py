@@ -35,7 +35,7 @@ def train(
         if not t.is_file():
             raise DataMissing(f"no training table at {t}")
     try:
-        from nfex_core.neural.train import train as run
+        from nfex_core.neural.training.train import train as run
     except ImportError as e:  # torch is a training-only dependency
         raise BadInput(f"training needs torch (pip install 'nfex[train]'): {e}") from None
     s = settings()

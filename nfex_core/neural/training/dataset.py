@@ -17,9 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from ..sweeps.table import WINDOW
-from ..sweeps.table import read as read_rows
-from .selectornet import prepare_image
+from ...sweeps.table import WINDOW
+from ...sweeps.table import read as read_rows
+from ..selectornet import prepare_image
 
 log = logging.getLogger(__name__)
 

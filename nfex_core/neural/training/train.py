@@ -17,13 +17,13 @@ from typing import Any
 
 import numpy as np
 
-from ..kg.vocab import Vocabulary
+from ...kg.vocab import Vocabulary
+from ..artifacts import NeuralModel, code_version, new_version, sha256_file
+from ..encoding import InputVocabulary, Scaler
+from ..paramnet import ParamNet
+from ..selectornet import IMAGE_HW, SelectorNet, numeric_input
 from . import torch_nets
-from .artifacts import NeuralModel, code_version, new_version, sha256_file
 from .dataset import ImageSource, Window, default_image_source, folds, read_table
-from .encoding import InputVocabulary, Scaler
-from .paramnet import ParamNet
-from .selectornet import IMAGE_HW, SelectorNet, numeric_input
 from .validation import Validation
 
 P_HIDE_CONTEXT, P_HIDE_METRICS, P_HIDE_IMAGE = 0.2, 0.3, 0.1

@@ -34,10 +34,10 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from ..encoding import InputVocabulary
+from ..paramnet import ParamNet
+from ..selectornet import SelectorNet
 from .dataset import Window
-from .encoding import InputVocabulary
-from .paramnet import ParamNet
-from .selectornet import SelectorNet
 
 
 def context_key(w: Window) -> tuple[tuple[str, str | None], ...]:

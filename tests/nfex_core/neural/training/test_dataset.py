@@ -4,8 +4,8 @@ from pathlib import Path
 
 import numpy as np
 
-from nfex_core.neural.dataset import Window, default_image_source
 from nfex_core.neural.selectornet import IMAGE_HW
+from nfex_core.neural.training.dataset import Window, default_image_source
 
 
 def window(corruption: str, severity: str = "0.7", dataset: str = "kitti", sequence: str = "00") -> Window:

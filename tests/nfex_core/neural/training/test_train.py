@@ -7,10 +7,10 @@ from pathlib import Path
 
 import pytest
 
-from nfex_core.neural.dataset import folds, read_table, split
-from nfex_core.neural.train import auto_epochs
+from nfex_core.neural.training.dataset import folds, read_table, split
+from nfex_core.neural.training.train import auto_epochs
 
-from .tablegen import make_table
+from ..tablegen import make_table
 
 
 def test_learns_the_planted_rule_better_than_every_baseline(trained) -> None:  # type: ignore[no-untyped-def]
@@ -32,7 +32,7 @@ def test_learns_the_planted_rule_better_than_every_baseline(trained) -> None:  #
 def test_a_constant_winner_gates_the_selector_out(tmp_path: Path, vocab) -> None:  # type: ignore[no-untyped-def]
     """Where SIFT is best in every window, no selector can beat answering SIFT: it is not used."""
     from nfex_core.neural.artifacts import NeuralModel
-    from nfex_core.neural.train import train
+    from nfex_core.neural.training.train import train
 
     table = make_table(tmp_path / "t.csv", vocab, windows=4, winner="SIFT")
     report = train(table, tmp_path / "model", vocab, epochs=5, log=lambda _m: None)
