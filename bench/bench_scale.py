@@ -66,7 +66,7 @@ from nfex_core.kg import KnowledgeGraph  # noqa: E402
 from nfex_core.kg.backends import RemoteBackend  # noqa: E402
 from nfex_core.kg.history import ChangeText  # noqa: E402
 from nfex_core.knowledge import seed_graph  # noqa: E402
-from nfex_core.seed_content import seed_content  # noqa: E402
+from nfex_core.knowledge.seed_content import seed_content  # noqa: E402
 
 AGGREGATE = """PREFIX nfex: <https://w3id.org/nfex#>
 PREFIX sosa: <http://www.w3.org/ns/sosa/>

@@ -45,9 +45,9 @@ def sparql(
     format: Annotated[Format, typer.Option("--format", help="Output format for SELECT/ASK results.")] = Format.table,
 ) -> None:
     """Run a SPARQL 1.1 query against the knowledge graph (read-only)."""
+    from nfex_core.kg.namespaces import PREFIXES
     from nfex_core.kg.sparql_gate import gate_query
     from nfex_core.kg.sparql_query import with_prefixes
-    from nfex_core.namespaces import PREFIXES
 
     if (query is None) == (file is None):
         raise BadInput("give a query or --file, not both and not neither")

@@ -1,7 +1,6 @@
 """Fixtures shared by the whole suite: seeded stores, a real Oxigraph server, free ports, the data folder."""
 from __future__ import annotations
 
-import dataclasses
 import os
 import shutil
 import socket
@@ -182,7 +181,7 @@ class SparqlServer:
     def settings(self) -> Settings:
         base = Settings.from_env().replace(store=self.url)
         fields = {name: self.env.get(f"NFEX_{name.upper()}") for name in ("store_update", "store_user", "store_password", "store_graph")}
-        return dataclasses.replace(base, **fields)
+        return base.replace(**fields)
 
     def open(self, *, seed: bool = True) -> KnowledgeGraph:
         return open_graph(settings=self.settings(), seed_empty=seed)

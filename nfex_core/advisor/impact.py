@@ -23,15 +23,15 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from .errors import NfexError
-from .kg.backends import EmbeddedBackend
-from .kg.changes import ChangeSet
-from .kg.terms import triple_n3
-from .rules.table import RuleTable
+from ..errors import NfexError
+from ..kg.backends import EmbeddedBackend
+from ..kg.changes import ChangeSet
+from ..kg.terms import triple_n3
+from ..rules.table import RuleTable
 
 if TYPE_CHECKING:
-    from .advisor import Advisor
-    from .kg.store import KnowledgeGraph
+    from ..kg.store import KnowledgeGraph
+    from . import Advisor
 
 Context = dict[str, str | None]
 
@@ -112,7 +112,7 @@ class Impact:
 def scratch_copy(kg: KnowledgeGraph, change: ChangeSet | None = None) -> KnowledgeGraph:
     """An in-memory KnowledgeGraph holding ``kg``'s default graph with ``change`` applied (not versioned:
     its head is 0). Works for an embedded and a remote store alike (the copy is read with one query)."""
-    from .kg.store import KnowledgeGraph
+    from ..kg.store import KnowledgeGraph
 
     buf = io.BytesIO()
     kg.backend.query_to("CONSTRUCT { ?s ?p ?o } WHERE { ?s ?p ?o }", "application/n-triples", buf)
@@ -173,7 +173,7 @@ def impact(kg: KnowledgeGraph, change: ChangeSet, *, make_advisor: Callable[[Kno
     Both sides are answered from scratch copies loaded the same way: the order in which a store returns
     extractors and measurements decides ties, and a disk store and an in-memory copy may order them
     differently, which would show as changes no edit made."""
-    from .advisor import Advisor
+    from . import Advisor
 
     t0 = time.perf_counter()
     build = make_advisor or (lambda g: Advisor(g))

@@ -35,14 +35,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .evidence import Aggregate, Observation, admitted, read_observations, robust
-from .evidence.groups import cost_group
-from .evidence.index import read_settings
-from .kg.terms import py
-from .kg.vocab import ExtractorSpec, Value
+from ..kg.terms import py
+from ..kg.vocab import ExtractorSpec, Value
+from . import Aggregate, Observation, admitted, read_observations, robust
+from .groups import cost_group
+from .index import read_settings
 
 if TYPE_CHECKING:
-    from .kg.store import KnowledgeGraph
+    from ..kg.store import KnowledgeGraph
 
 MEASURED_CONFIGURATIONS = "SELECT DISTINCT ?cfg WHERE { ?m a nfex:Measurement ; sosa:usedProcedure ?cfg }"
 

@@ -20,14 +20,14 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 
-from .config import Settings
-from .errors import Conflict, PreconditionFailed
-from .kg.changes import ChangeSet
-from .kg.shipped import ontology_graph, shapes_graph
-from .kg.store import CommitResult, KnowledgeGraph
-from .kg.terms import Triple
-from .rules.dsl.programs import programs_graph
-from .rules.pruning import rules_graph
+from ..config import Settings
+from ..errors import Conflict, PreconditionFailed
+from ..kg.changes import ChangeSet
+from ..kg.shipped import ontology_graph, shapes_graph
+from ..kg.store import CommitResult, KnowledgeGraph
+from ..kg.terms import Triple
+from ..rules.dsl.programs import programs_graph
+from ..rules.pruning import rules_graph
 from .seed_content import seed_content
 
 SEED_AUTHOR = "nfex seed"

@@ -27,12 +27,12 @@ import pyoxigraph as ox
 import rdflib
 from rdflib.term import Node, URIRef
 
-from .caches import prune, write_atomically
-from .config import Settings
-from .kg.changes import graph_triples
-from .kg.history import ChangeText
-from .kg.terms import Triple, nt, oxigraph_triples, triple_n3, triple_nt
-from .rules.dsl.parser import GRAMMAR
+from ..caches import prune, write_atomically
+from ..config import Settings
+from ..kg.changes import graph_triples
+from ..kg.history import ChangeText
+from ..kg.terms import Triple, nt, oxigraph_triples, triple_n3, triple_nt
+from ..rules.dsl.parser import GRAMMAR
 
 log = logging.getLogger("nfex.seed")
 PACKAGE = Path(__file__).resolve().parent

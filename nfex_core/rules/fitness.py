@@ -15,8 +15,8 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from .kg.vocab import ExtractorSpec, MetricSpec, Value
-from .rules.types import Adjustment, Citation, Factor
+from ..kg.vocab import ExtractorSpec, MetricSpec, Value
+from .types import Adjustment, Citation, Factor
 
 REFERENCE_PIXELS = 640 * 480
 RESOLUTION_CITATION = Citation(

@@ -9,7 +9,6 @@ it cites — not for a time; how long that takes is a figure for the bench (``be
 the compile per report) and is printed here (run with ``-s``)."""
 from __future__ import annotations
 
-import dataclasses
 import os
 import subprocess
 import sys
@@ -38,7 +37,7 @@ def shipped_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[SparqlS
     """A real `oxigraph serve`, seeded with the shipped graph (ontology/ with its measurements, rules/)."""
     proc, server = start_sparql_server("oxigraph", tmp_path_factory.mktemp("replicas-oxigraph"))
     try:
-        graph = open_graph(settings=dataclasses.replace(server.settings(), home=REPO), seed_empty=True)
+        graph = open_graph(settings=server.settings().replace(home=REPO), seed_empty=True)
         graph.close()
         yield server
     finally:

@@ -1,8 +1,8 @@
-"""nfex_core.impact: the contexts whose α or Θ′ a change would alter, computed without writing."""
+"""nfex_core.advisor.impact: the contexts whose α or Θ′ a change would alter, computed without writing."""
 from __future__ import annotations
 
 from nfex_core.advisor import Advisor
-from nfex_core.impact import contexts, impact, outcome, scratch_copy
+from nfex_core.advisor.impact import contexts, impact, outcome, scratch_copy
 from nfex_core.kg import ChangeSet, KnowledgeGraph
 from nfex_core.rules.dsl import programs
 

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nfex_core.cost import CostModel, ExtractorCost, expected_cost_query, fit_cost_model
+from nfex_core.evidence.cost import CostModel, ExtractorCost, expected_cost_query, fit_cost_model
 from nfex_core.kg import KnowledgeGraph
 from nfex_core.rules.engine import compile_table
 from nfex_core.sweeps.grid import canonical

@@ -7,7 +7,7 @@ from rdflib.namespace import RDFS
 
 from nfex_core.errors import BadInput, NotFound, ParseError, PreconditionFailed, ValidationFailed
 from nfex_core.kg import ChangeSet, KnowledgeGraph, graph_triples, parse_rdf
-from nfex_core.namespaces import NFEX
+from nfex_core.kg.namespaces import NFEX
 
 P = "@prefix nfex: <https://w3id.org/nfex#> . @prefix rdfs: <http://www.w3.org/2000/01/rdf-schema#> .\n"
 CONFIG = P + """

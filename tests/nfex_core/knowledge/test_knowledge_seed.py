@@ -1,7 +1,6 @@
 """Seeding refuses to build a store from a home without an ontology (it would be silently empty)."""
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
 import pytest
@@ -12,6 +11,6 @@ from nfex_core.knowledge import open_graph
 
 
 def test_a_home_without_an_ontology_is_a_clear_error(tmp_path: Path) -> None:
-    settings = dataclasses.replace(Settings.from_env(), home=tmp_path / "empty-home")
+    settings = Settings.from_env().replace(home=tmp_path / "empty-home")
     with pytest.raises(DataMissing, match="no ontology to seed from"):
         open_graph(str(tmp_path / "store"), settings=settings)

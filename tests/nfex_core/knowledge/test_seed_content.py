@@ -9,7 +9,7 @@ import pytest
 from nfex_core.config import Settings
 from nfex_core.kg.changes import graph_triples
 from nfex_core.knowledge import seed_graph
-from nfex_core.seed_content import KEEP, digest, seed_content
+from nfex_core.knowledge.seed_content import KEEP, digest, seed_content
 
 
 def settings_in(tmp_path: Path) -> Settings:
@@ -79,7 +79,7 @@ def test_round_trips_checks_every_term() -> None:
     from rdflib import Literal, URIRef
     from rdflib.namespace import XSD
 
-    from nfex_core.seed_content import PROBE, round_trips
+    from nfex_core.knowledge.seed_content import PROBE, round_trips
 
     fine = {URIRef("https://w3id.org/nfex#ORB"), Literal("a\nb \"q\""), Literal("x", lang="en"), Literal("1.5", datatype=XSD.decimal), PROBE}
     assert round_trips(fine)
