@@ -21,7 +21,9 @@ def serve(
 
     # the service's settings, read once from NFEX_*; the options given here win over them
     settings = Settings(store=state.store) if state.store else Settings()
-    host, port, log_level = host or settings.host, port or settings.port, log_level or settings.log_level
+    host = settings.host if host is None else host
+    port = settings.port if port is None else port
+    log_level = settings.log_level if log_level is None else log_level
     # the app logs JSON itself (service/observability.py): keep uvicorn from installing its own handlers
     if workers == 1:  # the settings go to the app object directly
         from service.main import create_app
