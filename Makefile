@@ -57,7 +57,7 @@ test: install-dev sparql-servers browser
 
 docs: $(BIN)/python
 	$(BIN)/pip install --quiet -e '.[docs]'
-	$(BIN)/python -m nfex_core.kg.docs out/docs/ontology
+	$(BIN)/python -m nfex_core.kg.vocabulary.docs out/docs/ontology
 
 cpp:
 	@missing=$$(for p in $(CPP_DEBS); do dpkg-query -W -f='$${db:Status-Status}' $$p 2>/dev/null | grep -qx installed || echo $$p; done); \

@@ -41,9 +41,9 @@ sys.path.insert(0, str(ROOT / "bench"))
 from _timing import free_port  # noqa: E402
 
 from nfex_core.config import Settings  # noqa: E402
-from nfex_core.kg import sparql_update  # noqa: E402
-from nfex_core.kg.changes import ChangeSet, graph_triples  # noqa: E402
-from nfex_core.kg.sparql_query import with_prefixes  # noqa: E402
+from nfex_core.kg.storage import sparql_update  # noqa: E402
+from nfex_core.kg.storage.changes import ChangeSet, graph_triples  # noqa: E402
+from nfex_core.kg.storage.sparql_query import with_prefixes  # noqa: E402
 from nfex_core.kg.store import KnowledgeGraph  # noqa: E402
 from nfex_core.knowledge import open_graph, seed_graph  # noqa: E402
 

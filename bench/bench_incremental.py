@@ -14,7 +14,7 @@ same. The kinds of change:
 - ``admitted``: the same with ``nfex:minSources 1``, so every report is admitted and changes the evidence
   summaries the measured rules read;
 - ``admitted-fast``: an admitted report under agent = car and motion = fast, inside the star of the shipped
-  expert rule (kg/footprint.py), which then counts every car + fast Measurement again;
+  expert rule (kg/storage/footprint.py), which then counts every car + fast Measurement again;
 - ``editor``: an editor's small ``kg update`` that disables and re-enables a DSL statement (configuration:
   the whole table is compiled again, what ``/sparql/update``'s read-your-writes waits for).
 """

@@ -33,8 +33,8 @@ from nfex_core.evidence.observations import (  # noqa: E402
     read_observations,
 )
 from nfex_core.kg import KnowledgeGraph  # noqa: E402
-from nfex_core.kg.backends import EmbeddedBackend  # noqa: E402
-from nfex_core.kg.history import prefix_block  # noqa: E402
+from nfex_core.kg.storage.backends import EmbeddedBackend  # noqa: E402
+from nfex_core.kg.storage.history import prefix_block  # noqa: E402
 
 
 def one_query(kg: KnowledgeGraph) -> list[Observation]:

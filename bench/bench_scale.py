@@ -63,8 +63,8 @@ from bench_fleet import measure, pct  # noqa: E402
 
 from nfex_core.config import Settings  # noqa: E402
 from nfex_core.kg import KnowledgeGraph  # noqa: E402
-from nfex_core.kg.backends import RemoteBackend  # noqa: E402
-from nfex_core.kg.history import ChangeText  # noqa: E402
+from nfex_core.kg.storage.backends import RemoteBackend  # noqa: E402
+from nfex_core.kg.storage.history import ChangeText  # noqa: E402
 from nfex_core.knowledge import seed_graph  # noqa: E402
 from nfex_core.knowledge.seed_content import seed_content  # noqa: E402
 

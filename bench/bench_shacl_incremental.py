@@ -20,7 +20,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _graphs import bulk, change_of_about  # noqa: E402
 from _timing import call_ms  # noqa: E402
 
-from nfex_core.kg.validation import validate_graph  # noqa: E402
+from nfex_core.kg.shacl.validation import validate_graph  # noqa: E402
 from nfex_core.knowledge import open_graph
 
 

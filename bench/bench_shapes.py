@@ -24,7 +24,7 @@ import time
 import rdflib
 
 from nfex_core.advisor import Advisor
-from nfex_core.kg.validation import run_pyshacl, shapes_closure
+from nfex_core.kg.shacl.validation import run_pyshacl, shapes_closure
 from nfex_core.knowledge import open_graph
 from nfex_core.rules.engine import compile_table
 from nfex_core.rules.shape_check import enforce, materialise

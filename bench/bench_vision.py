@@ -31,7 +31,7 @@ import cv2
 import numpy as np
 
 from nfex_core.config import Settings
-from nfex_core.kg.vocab import Vocabulary
+from nfex_core.kg.vocabulary.vocab import Vocabulary
 from nfex_core.knowledge import open_graph
 from nfex_core.vision import metrics as M
 from nfex_core.vision.backends import unavailable

@@ -74,7 +74,7 @@ def update(
     expect_version: ExpectOpt = None,
 ) -> None:
     """Run a SPARQL 1.1 Update as one checked transaction."""
-    from nfex_core.kg.sparql_query import with_prefixes
+    from nfex_core.kg.storage.sparql_query import with_prefixes
 
     kg = open_kg()
     report_commit(kg.update(with_prefixes(update), author=author_of(author), message=message, expected_version=expect_version), "update")
@@ -104,7 +104,7 @@ def diff(
     since: Annotated[int | None, typer.Option(help="…or the net change from version SINCE to VERSION.")] = None,
 ) -> None:
     """Print a version's change set as N-Triples lines prefixed with + and −."""
-    from nfex_core.kg.terms import triple_n3
+    from nfex_core.kg.rdf.terms import triple_n3
 
     kg = open_kg()
     change = kg.diff(since, version) if since is not None else kg.changes(version)
@@ -141,7 +141,7 @@ def export(
     """Export the knowledge (the default graph) — it opens in Protégé and re-imports with `kg add`."""
     kg = open_kg()
     if owl:
-        from nfex_core.kg.owl import owl_only
+        from nfex_core.kg.vocabulary.owl import owl_only
 
         text = owl_only(kg.data_graph()).serialize(format=format.value)
     else:

@@ -45,9 +45,9 @@ def sparql(
     format: Annotated[Format, typer.Option("--format", help="Output format for SELECT/ASK results.")] = Format.table,
 ) -> None:
     """Run a SPARQL 1.1 query against the knowledge graph (read-only)."""
-    from nfex_core.kg.namespaces import PREFIXES
-    from nfex_core.kg.sparql_gate import gate_query
-    from nfex_core.kg.sparql_query import with_prefixes
+    from nfex_core.kg.rdf.namespaces import PREFIXES
+    from nfex_core.kg.storage.sparql_gate import gate_query
+    from nfex_core.kg.storage.sparql_query import with_prefixes
 
     if (query is None) == (file is None):
         raise BadInput("give a query or --file, not both and not neither")
@@ -72,7 +72,7 @@ def sparql(
         return
     result = kg.backend.select(text)
     if format is Format.json:
-        from nfex_core.kg.backends import json_bindings
+        from nfex_core.kg.storage.backends import json_bindings
 
         echo_json(json_bindings(result))
     elif format is Format.csv:

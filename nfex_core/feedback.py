@@ -10,7 +10,7 @@ Being attributed makes it a *report*: it steers selections only once corroborate
 reporters or accepted by an editor (nfex_core/evidence/trust.py).
 
 Reports arrive as a stream (a fleet reports per window), so ``ReportWriter`` commits those that arrive
-together as one transaction (group commit, kg/batch.py): one head read, one presence check, one SHACL
+together as one transaction (group commit, kg/storage/batch.py): one head read, one presence check, one SHACL
 validation of the touched nodes and one new graph version — hence one rule-table recompile — per batch
 instead of per report. A report whose own input is bad (unknown name, bad window) fails alone before the
 commit. The batch is committed optimistically, as one change; when SHACL rejects it (rare: the request
@@ -34,13 +34,13 @@ from rdflib.term import Literal, URIRef
 
 from . import __version__
 from .errors import BadInput, NfexError, ValidationFailed
-from .kg import identity
-from .kg.batch import Batcher
-from .kg.changes import ChangeSet, graph_triples
-from .kg.namespaces import NFEX
+from .kg.rdf import identity
+from .kg.rdf.namespaces import NFEX
+from .kg.rdf.terms import n3
+from .kg.storage.batch import Batcher
+from .kg.storage.changes import ChangeSet, graph_triples
 from .kg.store import CommitResult
-from .kg.terms import n3
-from .kg.vocab import Vocabulary
+from .kg.vocabulary.vocab import Vocabulary
 from .sweeps import records
 
 if TYPE_CHECKING:

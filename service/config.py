@@ -45,7 +45,7 @@ class Settings(CoreSettings):
     feedback_batch: int = 64
     feedback_window_ms: float = 20.0
     # writes' pySHACL runs in a worker process, off the interpreter lock the selections and the compile share
-    # (nfex_core/kg/shacl_process.py; what it buys: bench/bench_fleet.py)
+    # (nfex_core/kg/shacl/process.py; what it buys: bench/bench_fleet.py)
     shacl_process: bool = True
     # how long a thread may hold the GIL while another waits (Python's default 5 ms): the event loop answering a
     # select waits on the background compile and the commits' validation at most this long per switch

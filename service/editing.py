@@ -9,7 +9,7 @@ from rdflib.term import Node, URIRef
 
 from nfex_core.errors import BadInput
 from nfex_core.kg import ChangeSet, KnowledgeGraph, parse_rdf
-from nfex_core.kg.terms import Triple, is_skolem, n3
+from nfex_core.kg.rdf.terms import Triple, is_skolem, n3
 
 from .bodies import media_type
 from .images import UnsupportedMediaType
@@ -58,7 +58,7 @@ async def rdf_body(request: Request) -> rdflib.Graph:
 
 def turtle(triples: set[Triple]) -> str:
     g = rdflib.Graph()
-    from nfex_core.kg.namespaces import PREFIXES
+    from nfex_core.kg.rdf.namespaces import PREFIXES
 
     for p, ns in PREFIXES.items():
         g.bind(p, ns)

@@ -8,7 +8,7 @@ query form can carry, and are ignored where they do not, so ``Accept`` decides t
 from __future__ import annotations
 
 from nfex_core.errors import NfexError
-from nfex_core.kg.backends import GRAPH_FORMATS, RESULT_FORMATS
+from nfex_core.kg.storage.backends import GRAPH_FORMATS, RESULT_FORMATS
 
 
 class NotAcceptable(NfexError):

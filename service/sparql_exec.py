@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from nfex_core.errors import ParseError, QueryLimitExceeded, StoreUnavailable
-from nfex_core.kg.backends import GRAPH_FORMATS, RESULT_FORMATS, Backend, EmbeddedBackend
+from nfex_core.kg.storage.backends import GRAPH_FORMATS, RESULT_FORMATS, Backend, EmbeddedBackend
 
 from .query_worker import read_message, write_message
 

@@ -18,7 +18,7 @@ from hypothesis import HealthCheck, settings
 
 from nfex_core.config import Settings
 from nfex_core.kg import KnowledgeGraph
-from nfex_core.kg.backends import Backend, open_backend
+from nfex_core.kg.storage.backends import Backend, open_backend
 from nfex_core.knowledge import open_graph
 
 REPO = Path(__file__).resolve().parent.parent

@@ -65,7 +65,7 @@ import json
 from rdflib import Literal, URIRef
 from nfex_core.knowledge import open_graph
 from nfex_core.kg import ChangeSet
-from nfex_core.kg.validation import validate_change
+from nfex_core.kg.shacl.validation import validate_change
 N = "https://w3id.org/nfex#"
 kg = open_graph()
 shapes = kg.shapes()

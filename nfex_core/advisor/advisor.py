@@ -38,7 +38,7 @@ import numpy as np
 
 from ..errors import BadInput
 from ..kg.scope import EvidenceScope, scoped_graph
-from ..kg.vocab import Vocabulary
+from ..kg.vocabulary.vocab import Vocabulary
 from ..neural.serve import ModelHolder
 from ..rules.engine import RuleEngine
 from ..rules.persisted import CompiledCache, store_key

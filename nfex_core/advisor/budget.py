@@ -29,8 +29,8 @@ from typing import Any
 
 from ..errors import UnknownName
 from ..evidence.cost import BudgetTerms, CostModel, Estimate
-from ..kg.namespaces import NFEX
-from ..kg.vocab import ExtractorSpec, Value
+from ..kg.rdf.namespaces import NFEX
+from ..kg.vocabulary.vocab import ExtractorSpec, Value
 from ..rules.types import Adjustment, Citation
 
 BUDGET_RULE = str(NFEX.rule_budget)

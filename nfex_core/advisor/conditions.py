@@ -15,7 +15,7 @@ import numpy as np
 
 from ..context import ContextEntry
 from ..errors import BadInput
-from ..kg.vocab import Vocabulary
+from ..kg.vocabulary.vocab import Vocabulary
 
 if TYPE_CHECKING:
     from .scoring import FrameState

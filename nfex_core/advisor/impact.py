@@ -24,9 +24,9 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from ..errors import NfexError
-from ..kg.backends import EmbeddedBackend
-from ..kg.changes import ChangeSet
-from ..kg.terms import triple_n3
+from ..kg.rdf.terms import triple_n3
+from ..kg.storage.backends import EmbeddedBackend
+from ..kg.storage.changes import ChangeSet
 from ..rules.table import RuleTable
 
 if TYPE_CHECKING:

@@ -19,8 +19,8 @@ from collections.abc import Sequence
 
 from ..evidence import Aggregate
 from ..evidence.cost import CostModel
-from ..kg.namespaces import NFEX
-from ..kg.vocab import ExtractorSpec, Value
+from ..kg.rdf.namespaces import NFEX
+from ..kg.vocabulary.vocab import ExtractorSpec, Value
 from ..rules.types import Adjustment, Citation, MeasuredConfiguration
 from .budget import Budget, expected
 

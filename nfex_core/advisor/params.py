@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from typing import Protocol
 
 from ..evidence.cost import CostModel, Estimate
-from ..kg.vocab import ExtractorSpec, Value, Vocabulary
+from ..kg.vocabulary.vocab import ExtractorSpec, Value, Vocabulary
 from ..neural.serve import NeuralStep
 from ..rules.fitness import adjust_params
 from ..rules.shape_check import enforce

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 import numpy as np
 
-from ..kg.vocab import Vocabulary
+from ..kg.vocabulary.vocab import Vocabulary
 from ..neural.serve import NeuralStep
 from .conditions import Conditions
 from .params import Parameters

@@ -49,7 +49,7 @@ class ReuseTerms:
 
     @classmethod
     def load(cls, kg: KnowledgeGraph) -> ReuseTerms:
-        from ..kg.terms import py
+        from ..kg.rdf.terms import py
 
         def value(name: str) -> float | None:
             rows = kg.select(f"SELECT ?v WHERE {{ nfex:{name} nfex:value ?v }}").rows

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from ..evidence.cost import CostModel
-from ..kg.vocab import ExtractorSpec, Value, Vocabulary
+from ..kg.vocabulary.vocab import ExtractorSpec, Value, Vocabulary
 from ..neural.serve import BoundedChoice, NeuralStep
 from ..rules.fitness import f_metrics
 from ..rules.types import Decision

@@ -12,7 +12,7 @@ from typing import Any
 from ..context import ContextEntry
 from ..evidence import ROBUST
 from ..evidence.cost import Estimate
-from ..kg.vocab import Value
+from ..kg.vocabulary.vocab import Value
 from ..rules.types import NO_POLICY, Adjustment, Citation, Evidence, Factor, MeasuredConfiguration, Policy
 
 __all__ = ["CandidateEvidence", "CandidateScore", "ContextEntry", "PrunedCandidate", "Scoring", "Selection"]

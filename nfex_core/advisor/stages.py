@@ -20,7 +20,7 @@ import numpy as np
 
 from ..errors import NoCandidate
 from ..evidence.cost import BudgetTerms, CostModel
-from ..kg.vocab import ExtractorSpec, Vocabulary
+from ..kg.vocabulary.vocab import ExtractorSpec, Vocabulary
 from ..neural.serve import NeuralStep, frame_stats
 from ..rules.types import Citation, Decision, Policy
 from .budget import Budget, BudgetOutcome, resolve_budget, settle

@@ -28,7 +28,7 @@ from nfex_slam.vo import Choice, Chooser, FrameRecord, Proposals, fixed
 
 from ..errors import BadInput
 from ..evidence import robust
-from ..kg.vocab import Value, Vocabulary
+from ..kg.vocabulary.vocab import Value, Vocabulary
 from ..rules.table import RuleTable
 from ..verification import BudgetWindow, judge
 

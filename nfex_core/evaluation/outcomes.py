@@ -28,7 +28,7 @@ from nfex_slam.trajectory.frontend import AUC_THRESHOLDS, frontend_ate, pair_err
 from nfex_slam.vo import FrameRecord, VOResult
 
 if TYPE_CHECKING:
-    from ..kg.backends import GraphReader
+    from ..kg.storage.backends import GraphReader
 
 TRACKED, COASTED, LOST = "tracked", "coasted", "lost"
 COAST_REASONS = ("check:", "verify:", "prior:")
@@ -61,7 +61,7 @@ class Outcomes:
 
 def max_coasted_fraction(kg: GraphReader) -> float:
     """``nfex:maxCoastedFraction``'s value in the graph (``DEFAULT_MAX_COASTED`` where it states none)."""
-    from ..kg.terms import py
+    from ..kg.rdf.terms import py
 
     rows = kg.select("SELECT ?v WHERE { nfex:maxCoastedFraction nfex:value ?v }").rows
     return float(py(rows[0]["v"])) if rows else DEFAULT_MAX_COASTED

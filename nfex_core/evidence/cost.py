@@ -35,8 +35,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..kg.terms import py
-from ..kg.vocab import ExtractorSpec, Value
+from ..kg.rdf.terms import py
+from ..kg.vocabulary.vocab import ExtractorSpec, Value
 from . import Aggregate, Observation, admitted, read_observations, robust
 from .groups import cost_group
 from .index import read_settings

@@ -6,7 +6,7 @@ a compile's time on a graph with many measurements, yet a feedback report adds o
 what the change since v can have touched:
 
 - S: every subject of a triple the change added or removed (kg.diff(v, head)) that the rows' queries can
-  read (their footprint, kg/footprint.py: an extractor's comment or a statement is not);
+  read (their footprint, kg/storage/footprint.py: an extractor's comment or a statement is not);
 - a Measurement's row reads its own triples and, along ``?m → ?cfg → ?extractor``, ``?m → ?condition →
   ?dimension``, ``?m → ?sequence``, nodes at most two steps away; a configuration's settings read
   ``?cfg → ?setting → ?parameter``, also two steps. So the affected nodes are S and every node with a path of
@@ -30,14 +30,14 @@ from typing import TYPE_CHECKING
 
 from rdflib.term import URIRef
 
-from ..kg.footprint import Footprint, footprint, pairs, reads
-from ..kg.history import prefix_block
-from ..kg.specs import Value
-from ..kg.terms import Triple, py
+from ..kg.rdf.terms import Triple, py
+from ..kg.storage.footprint import Footprint, footprint, pairs, reads
+from ..kg.storage.history import prefix_block
+from ..kg.vocabulary.specs import Value
 from .observations import OBSERVATIONS, Observation, read_observations, restricted
 
 if TYPE_CHECKING:
-    from ..kg.changes import ChangeSet
+    from ..kg.storage.changes import ChangeSet
     from ..kg.store import KnowledgeGraph
 
 log = logging.getLogger("nfex.evidence")
@@ -138,7 +138,7 @@ class ObservationIndex:
 
 @functools.cache
 def _footprint() -> Footprint | None:
-    """What a Measurement's row and a configuration's settings read (kg/footprint.py)."""
+    """What a Measurement's row and a configuration's settings read (kg/storage/footprint.py)."""
     rows, settings = footprint(prefix_block() + OBSERVATIONS), footprint(prefix_block() + SETTINGS)
     return None if rows is None or settings is None else rows | settings
 

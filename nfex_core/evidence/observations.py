@@ -15,7 +15,7 @@ from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from ..kg.history import prefix_block
+from ..kg.storage.history import prefix_block
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph

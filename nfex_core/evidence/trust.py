@@ -20,7 +20,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from ..kg.terms import py
+from ..kg.rdf.terms import py
 from .observations import Observation
 
 if TYPE_CHECKING:

@@ -17,7 +17,7 @@ version, on a *view*: an in-memory copy of the default graph where
 
 The summaries exist in the view only; ``GET /sparql`` shows the stored graph.
 
-Of the stored graph the view holds only what the rules can read: R, their *reach* (kg/footprint.py ``Reach``;
+Of the stored graph the view holds only what the rules can read: R, their *reach* (kg/storage/footprint.py ``Reach``;
 all of it where a rule's patterns cannot be told), about one statement in ten at 3M. A first view costs one
 N-Triples dump of R(G) and its load (``bench/bench_rules.py`` prints it). The next version's view is made from
 the last one (``EvidenceView.advance``): with Q the quarantined Measurements and S the summary triples, the view
@@ -45,13 +45,13 @@ from typing import TYPE_CHECKING
 import pyoxigraph as ox
 from rdflib.term import Literal, Node, URIRef
 
-from ..kg.backends import EmbeddedBackend
-from ..kg.changes import ChangeSet
-from ..kg.claims import META
-from ..kg.footprint import Delta, Reach
-from ..kg.history import HEAD, ChangeText
-from ..kg.namespaces import NFEX
-from ..kg.terms import oxigraph_triples, py
+from ..kg.rdf.namespaces import NFEX
+from ..kg.rdf.terms import oxigraph_triples, py
+from ..kg.storage.backends import EmbeddedBackend
+from ..kg.storage.changes import ChangeSet
+from ..kg.storage.claims import META
+from ..kg.storage.footprint import Delta, Reach
+from ..kg.storage.history import HEAD, ChangeText
 from .aggregate import robust
 from .index import Diff
 from .observations import Observation
@@ -112,8 +112,8 @@ class EvidenceView:
     quarantined: frozenset[str]
     summary: frozenset[str]
     incremental: bool = False  # made from an earlier view (else from a dump of the stored graph)
-    delta: Delta | None = None  # the triples by which the advance changed the view (kg/footprint.py); None: unknown
-    reach: Reach | None = None  # the stored triples it holds: those the rules can read (kg/footprint.py); None: all
+    delta: Delta | None = None  # the triples by which the advance changed the view (kg/storage/footprint.py); None: unknown
+    reach: Reach | None = None  # the stored triples it holds: those the rules can read (kg/storage/footprint.py); None: all
 
     def detached(self) -> EvidenceView:
         """This view without its store: what the table kept on disk holds (rules/persisted.py). Advanced, it says what
@@ -164,7 +164,7 @@ class EvidenceView:
         return EvidenceView(version, self.backend, quarantined, summary, incremental=True, delta=delta, reach=reach)
 
     def holds(self, kg: KnowledgeGraph, triples: Set[tuple[URIRef, URIRef, URIRef]]) -> set[tuple[URIRef, URIRef, URIRef]] | None:
-        """Which of ``triples`` (IRIs only) this view holds, for kg/footprint.py ``change_effect``: asked of its store,
+        """Which of ``triples`` (IRIs only) this view holds, for kg/storage/footprint.py ``change_effect``: asked of its store,
         or, detached, of the stored graph less the quarantined plus the summaries — None where the store has moved
         past this view's version (it then cannot tell)."""
         if not triples:
@@ -188,7 +188,7 @@ def _summary_triples(lines: Iterable[str]) -> Iterator[tuple[Node, Node, Node]]:
 
 def _delta(kg: KnowledgeGraph, change: ChangeSet, before: frozenset[str], after: frozenset[str],
            summary_before: frozenset[str], summary_after: frozenset[str]) -> Delta | None:
-    """The triples by which the view changed, for kg/footprint.py; None where they are not known here: a
+    """The triples by which the view changed, for kg/storage/footprint.py; None where they are not known here: a
     Measurement left quarantine, or one that had triples before the change entered it (its stored triples come
     or go whole). A triple of a Measurement quarantined on both sides of the change never was in the view, nor
     was one added for a Measurement quarantined on arrival."""
@@ -243,7 +243,7 @@ def dump(kg: KnowledgeGraph, reach: Reach | None = None) -> EmbeddedBackend:
 def evidence_view(kg: KnowledgeGraph, admission: Admission, summary: frozenset[str], reach: Reach | None = None,
                   dumped: EmbeddedBackend | None = None) -> EvidenceView:
     """A fresh view (module docstring): the stored graph dumped and loaded, less the quarantined, plus the summaries;
-    ``reach``: only the stored triples the rules can read (kg/footprint.py ``Reach``: at 3M statements about one in
+    ``reach``: only the stored triples the rules can read (kg/storage/footprint.py ``Reach``: at 3M statements about one in
     ten), None: all of them; ``dumped``: ``dump(kg, reach)``, made beforehand. The dump carries the version it read (one query reads one state of the store, and a
     commit writes its data and the head in one operation), so the view knows its version even while commits land."""
     view = dumped if dumped is not None else dump(kg, reach)

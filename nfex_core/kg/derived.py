@@ -2,7 +2,7 @@
 shapes on a change.
 
 Each is kept for the version it was read at (``cached``) and carried to the next version when a commit cannot
-have changed it (``_carry_shapes``, ``_carry_vocabulary``: kg/footprint.py's footprints, changes.evidence_only).
+have changed it (``_carry_shapes``, ``_carry_vocabulary``: kg/storage/footprint.py's footprints, changes.evidence_only).
 A change is validated on the nodes it touches (validation.py), the whole candidate graph where it edits the
 shapes. ``Derived`` is a base of ``store.KnowledgeGraph``, which holds the store these read.
 """
@@ -14,11 +14,8 @@ from typing import Any, TypeVar
 
 import rdflib
 
-from .backends import Backend, SelectResult
-from .changes import ChangeSet, evidence_only
-from .footprint import Footprint, Recorder, pairs, reads
-from .shacl_process import ShaclProcess
-from .validation import (
+from .shacl.process import ShaclProcess
+from .shacl.validation import (
     Neighbourhood,
     Report,
     Shapes,
@@ -29,7 +26,10 @@ from .validation import (
     validate_change,
     validate_graph,
 )
-from .vocab import Vocabulary
+from .storage.backends import Backend, SelectResult
+from .storage.changes import ChangeSet, evidence_only
+from .storage.footprint import Footprint, Recorder, pairs, reads
+from .vocabulary.vocab import Vocabulary
 
 T = TypeVar("T")
 
@@ -90,7 +90,7 @@ class Derived:
 
     def _carry_vocabulary(self, change: ChangeSet, head: int) -> None:
         """The vocabulary of ``head`` is that of ``head + 1`` when ``change`` (just committed) misses what loading
-        it reads (the footprint of its queries, kg/footprint.py: an editor's statement toggle) or touches
+        it reads (the footprint of its queries, kg/storage/footprint.py: an editor's statement toggle) or touches
         evidence only (changes.evidence_only: a report's Measurement, run, configuration, …): spares each
         report batch and editor's write, and the compile after it, a reload (~15 ms)."""
         with self._cache_lock:

@@ -23,11 +23,11 @@ import pyoxigraph as ox
 
 from ..config import Settings
 from ..errors import BadInput
-from .backends import EmbeddedBackend
-from .changes import ChangeSet
-from .namespaces import NFEX
+from .rdf.namespaces import NFEX
+from .rdf.terms import n3
+from .storage.backends import EmbeddedBackend
+from .storage.changes import ChangeSet
 from .store import HEAD, META, CommitResult, KnowledgeGraph
-from .terms import n3
 
 
 @dataclass(frozen=True)

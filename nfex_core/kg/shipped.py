@@ -11,11 +11,11 @@ import pyoxigraph as ox
 
 from ..config import Settings
 from ..errors import DataMissing
-from .backends import EmbeddedBackend
-from .changes import read_turtle, read_turtle_triples
+from .rdf.terms import Triple
+from .storage.backends import EmbeddedBackend
+from .storage.changes import read_turtle, read_turtle_triples
 from .store import KnowledgeGraph
-from .terms import Triple
-from .vocab import Vocabulary
+from .vocabulary.vocab import Vocabulary
 
 
 def turtle_triples(paths: list[Path]) -> list[Triple]:

@@ -26,16 +26,24 @@ from rdflib.term import Literal
 
 from ..config import Settings
 from ..errors import BadInput, Conflict, NotFound, PreconditionFailed, StoreUnavailable, ValidationFailed
-from .backends import Backend, EmbeddedBackend, SelectResult, open_backend
-from .changes import ChangeSet, graph_triples
-from .claims import META as CLAIMS_META
-from .claims import Rival, ttl_for
-from .claims import release as release_claim
-from .claims import rivals as rival_claims
-from .claims import take as take_claim
 from .derived import Derived
-from .footprint import Footprint
-from .history import (
+from .rdf.namespaces import NFEX, PREFIXES
+from .rdf.terms import Triple, n3, py
+from .shacl.process import ShaclProcess
+from .shacl.validation import (
+    Neighbourhood,
+    Report,
+    core_violations,
+)
+from .storage.backends import Backend, EmbeddedBackend, SelectResult, open_backend
+from .storage.changes import ChangeSet, graph_triples
+from .storage.claims import META as CLAIMS_META
+from .storage.claims import Rival, ttl_for
+from .storage.claims import release as release_claim
+from .storage.claims import rivals as rival_claims
+from .storage.claims import take as take_claim
+from .storage.footprint import Footprint
+from .storage.history import (
     HEAD,
     ChangeText,
     Version,
@@ -47,16 +55,8 @@ from .history import (
     version_iri,
     write_version,
 )
-from .namespaces import NFEX, PREFIXES
-from .shacl_process import ShaclProcess
-from .sparql_gate import gate_change, gate_update
-from .sparql_update import change_of_update
-from .terms import Triple, n3, py
-from .validation import (
-    Neighbourhood,
-    Report,
-    core_violations,
-)
+from .storage.sparql_gate import gate_change, gate_update
+from .storage.sparql_update import change_of_update
 
 log = logging.getLogger("nfex.kg")
 META = CLAIMS_META

@@ -22,10 +22,10 @@ from collections.abc import Callable, Iterable
 
 from ..config import Settings
 from ..errors import Conflict, PreconditionFailed
-from ..kg.changes import ChangeSet
+from ..kg.rdf.terms import Triple
 from ..kg.shipped import ontology_graph, shapes_graph
+from ..kg.storage.changes import ChangeSet
 from ..kg.store import CommitResult, KnowledgeGraph
-from ..kg.terms import Triple
 from ..rules.dsl.programs import programs_graph
 from ..rules.pruning import rules_graph
 from .seed_content import seed_content

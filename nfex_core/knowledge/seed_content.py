@@ -7,7 +7,7 @@ fraction of one. The result depends only on the files and the code that read the
 the digest covers everything that determines it: every file under the home's ontology/ and rules/ (by its
 path there; a file that resolves outside the home also by its absolute path, which a program's
 ``nfex:sourceFile`` records), nfex_core's sources, the DSL grammar, the rdflib and pyoxigraph versions,
-and — when a Turtle file holds an IRI without a scheme, which kg.changes.read_turtle resolves against it — the working
+and — when a Turtle file holds an IRI without a scheme, which kg.storage.changes.read_turtle resolves against it — the working
 directory. The folder keeps the ``KEEP`` most recently used seeds. An edited file,
 another nFEX or another rdflib gives another name, so a stale file is never read; a file is written only
 after it was read back to the same triples (tmp file + rename: concurrent writers are harmless), and a
@@ -29,9 +29,9 @@ from rdflib.term import Node, URIRef
 
 from ..caches import prune, write_atomically
 from ..config import Settings
-from ..kg.changes import graph_triples
-from ..kg.history import ChangeText
-from ..kg.terms import Triple, nt, oxigraph_triples, triple_n3, triple_nt
+from ..kg.rdf.terms import Triple, nt, oxigraph_triples, triple_n3, triple_nt
+from ..kg.storage.changes import graph_triples
+from ..kg.storage.history import ChangeText
 from ..rules.dsl.parser import GRAMMAR
 
 log = logging.getLogger("nfex.seed")

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from ..kg.vocab import Vocabulary
+from ..kg.vocabulary.vocab import Vocabulary
 from .encoding import InputVocabulary, Scaler
 from .paramnet import ParamNet
 from .selectornet import SelectorNet

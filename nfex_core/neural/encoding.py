@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from ..kg.vocab import Vocabulary
+from ..kg.vocabulary.vocab import Vocabulary
 from ..rules.fitness import REFERENCE_PIXELS
 
 UNKNOWN = "unknown"

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..kg.vocab import ExtractorSpec, Value
+from ..kg.vocabulary.vocab import ExtractorSpec, Value
 from ..rules.fitness import REFERENCE_PIXELS
 from .encoding import InputVocabulary
 

@@ -26,8 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from ..kg.identity import model_iri
-from ..kg.vocab import ExtractorSpec, Value, Vocabulary
+from ..kg.rdf.identity import model_iri
+from ..kg.vocabulary.vocab import ExtractorSpec, Value, Vocabulary
 from ..rules.types import Adjustment, Citation
 from .artifacts import NeuralModel, find_model
 from .paramnet import decode
@@ -245,7 +245,7 @@ class ModelHolder:
 
 def _trained_on(model: NeuralModel) -> set[str]:
     """The sequence IRIs of the model's training table (its manifest's ``dataset/sequence`` keys)."""
-    from ..kg.identity import sequence_iri
+    from ..kg.rdf.identity import sequence_iri
 
     keys = model.manifest.get("data", {}).get("sequences", [])
     return {str(sequence_iri(*k.split("/", 1))) if "/" in k else str(sequence_iri(None, k)) for k in keys}

@@ -13,7 +13,7 @@ admitted observations, each aggregated with the median (evidence/aggregate.py). 
 on a context's first request and kept. ``compile_table`` runs again when the graph version changes, and
 carries from the last table whatever the change cannot have touched (docs/architecture.md): the
 configuration stage (setup.py), the observations (evidence/index.py) and their grouping (evidence/groups.py),
-the rules' view (evidence/view.py), each rule's hits outside its footprint (kg/footprint.py), and each
+the rules' view (evidence/view.py), each rule's hits outside its footprint (kg/storage/footprint.py), and each
 context's decision whose rule prunes are the same. The same step fits the cost model (nfex_core/evidence/cost.py) and reads the budget terms, so a request's
 budget check (advisor/budget.py) costs arithmetic only.
 
@@ -39,11 +39,11 @@ from ..evidence.cost import fit_groups
 from ..evidence.groups import Grouped
 from ..evidence.index import Diff, ObservationIndex
 from ..evidence.view import EvidenceView, dump, evidence_view, summary_lines
-from ..kg.backends import EmbeddedBackend
-from ..kg.changes import evidence_only
-from ..kg.footprint import Anchor, Effect, Reach, anchors, change_effect, reads
-from ..kg.history import read_changes
-from ..kg.vocab import ExtractorSpec, Value
+from ..kg.storage.backends import EmbeddedBackend
+from ..kg.storage.changes import evidence_only
+from ..kg.storage.footprint import Anchor, Effect, Reach, anchors, change_effect, reads
+from ..kg.storage.history import read_changes
+from ..kg.vocabulary.vocab import ExtractorSpec, Value
 from . import pruning
 from .persisted import CompiledCache
 from .setup import Setup
@@ -126,7 +126,7 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
     same = carry is not None and carry.setup is setup
     delta = made.delta if made is not None else None
     # a rule's last hits stand where its query is the same, the extractors are named alike and the view's
-    # change since misses the rule's footprint, or the stars of its patterns (kg/footprint.py), whatever else of
+    # change since misses the rule's footprint, or the stars of its patterns (kg/storage/footprint.py), whatever else of
     # the configuration changed; and where the rule pruned nothing and the change can only take rows out of its
     # answer (a prior that yielded to evidence, and more evidence)
     earlier = carry.hits if carry is not None and delta is not None \
@@ -254,7 +254,7 @@ def _pool() -> concurrent.futures.ThreadPoolExecutor:
 
 
 def _reach(setup: Setup) -> Reach | None:
-    """The stored triples the SPARQL rules can read (kg/footprint.py ``Reach``); None: any (a rule whose patterns
+    """The stored triples the SPARQL rules can read (kg/storage/footprint.py ``Reach``); None: any (a rule whose patterns
     cannot be told, or that cannot be parsed)."""
     found: list[Anchor] = []
     for rule in setup.rules:
@@ -272,7 +272,7 @@ def _extractor_names(setup: Setup) -> dict[str, str]:
 def _carried_setup(kg: KnowledgeGraph, previous: RuleTable | None, version: int, diff: Diff,
                    absent: Mapping[str, Citation]) -> Setup | None:
     """``previous``'s configuration stage, where the change from its version to ``version`` is evidence only
-    (kg.changes.evidence_only) and the same backends are missing; else None (read it again).
+    (kg.storage.changes.evidence_only) and the same backends are missing; else None (read it again).
 
     The types are read at the head ``now``; a commit landing while they are read makes the read inexact, so it is
     read again, three times. A store this process alone writes is then read once more holding its write lock, where

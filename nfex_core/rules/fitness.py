@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from ..kg.vocab import ExtractorSpec, MetricSpec, Value
+from ..kg.vocabulary.vocab import ExtractorSpec, MetricSpec, Value
 from .types import Adjustment, Citation, Factor
 
 REFERENCE_PIXELS = 640 * 480

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 from nfex_slam.motion import StepChecks
 
-from ..kg.backends import GraphReader
-from ..kg.terms import py
+from ..kg.rdf.terms import py
+from ..kg.storage.backends import GraphReader
 
 
 def load_step_checks(kg: GraphReader) -> dict[str, StepChecks]:

@@ -38,10 +38,10 @@ import pyoxigraph as ox
 import rdflib
 
 from ..caches import prune, write_atomically
-from ..kg.claims import META
-from ..kg.history import version_iri
-from ..kg.namespaces import NFEX
-from ..kg.terms import n3
+from ..kg.rdf.namespaces import NFEX
+from ..kg.rdf.terms import n3
+from ..kg.storage.claims import META
+from ..kg.storage.history import version_iri
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph

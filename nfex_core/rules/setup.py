@@ -13,7 +13,7 @@ sequences. A ``Setup`` is everything the first determines, per context E:
 The SPARQL rules read evidence (evidence/view.py), so their prunes are laid over this per version
 (``Setup.decision``); everything else is carried. A feedback report changes evidence only, so a compile
 keeps the last version's Setup when the change since then touches evidence nodes only
-(``kg.changes.evidence_only``) and reads it again otherwise.
+(``kg.storage.changes.evidence_only``) and reads it again otherwise.
 """
 from __future__ import annotations
 
@@ -26,9 +26,9 @@ from nfex_slam.motion import StepChecks
 
 from ..evidence import TrustPolicy
 from ..evidence.cost import BudgetTerms
-from ..kg.footprint import Footprint, footprint
-from ..kg.terms import py
-from ..kg.vocab import Vocabulary
+from ..kg.rdf.terms import py
+from ..kg.storage.footprint import Footprint, footprint
+from ..kg.vocabulary.vocab import Vocabulary
 from . import pruning
 from .motion import load_step_checks
 from .shapes import GraphShapes, load_context_shapes
@@ -66,7 +66,7 @@ class Setup:
     value_iris: Mapping[tuple[str, str], str]  # (dimension, value) → the condition value's IRI
     rules: tuple[pruning.SparqlRule, ...]
     queries: tuple[str | Exception, ...]  # each rule contextualised for every context (pruning.contextualise), or why it cannot be
-    footprints: tuple[Footprint | None, ...]  # what each rule reads (kg/footprint.py)
+    footprints: tuple[Footprint | None, ...]  # what each rule reads (kg/storage/footprint.py)
     statements: tuple[CompiledStatement, ...]
     shapes: tuple[CompiledShape, ...]
     errors: tuple[str, ...]  # malformed shapes and requires (the rules' errors come with their evaluation)

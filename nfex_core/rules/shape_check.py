@@ -23,8 +23,8 @@ import rdflib
 from rdflib.namespace import RDF
 from rdflib.term import URIRef
 
-from ..kg.namespaces import NFEX
-from ..kg.vocab import ExtractorSpec, ParameterSpec, Value, Vocabulary
+from ..kg.rdf.namespaces import NFEX
+from ..kg.vocabulary.vocab import ExtractorSpec, ParameterSpec, Value, Vocabulary
 from .types import Adjustment, Bound, Citation, CompiledShape
 
 
@@ -144,7 +144,7 @@ def verify_prohibitions(shapes: list[CompiledShape], vocab: Vocabulary, graph: r
     A requirement that reads no setting is compiled as "prune wherever the gate holds"; this checks the
     claim on one candidate per extractor (defaults) in one context where the gate holds.
     """
-    from ..kg.validation import run_pyshacl, shapes_closure
+    from ..kg.shacl.validation import run_pyshacl, shapes_closure
 
     kept: list[CompiledShape] = []
     errors: list[str] = []

@@ -18,10 +18,10 @@ from rdflib.collection import Collection
 from rdflib.namespace import RDF, RDFS, SH
 from rdflib.term import BNode, Literal, Node, URIRef
 
-from ..kg.identity import program_iri
-from ..kg.namespaces import NFEX
-from ..kg.terms import is_skolem, n3
-from ..kg.vocab import Value, Vocabulary
+from ..kg.rdf.identity import program_iri
+from ..kg.rdf.namespaces import NFEX
+from ..kg.rdf.terms import is_skolem, n3
+from ..kg.vocabulary.vocab import Value, Vocabulary
 from .shapes import COMPARATORS, DSL_COMPARATORS, CompiledShape, ShapeFormError, compile_shape
 from .types import ConditionAtom
 

@@ -13,8 +13,8 @@ from typing import TYPE_CHECKING
 
 from rdflib.term import Literal, Node, URIRef
 
-from ..kg.terms import py
-from ..kg.vocab import ExtractorSpec, MetricSpec, ParameterSpec, Vocabulary
+from ..kg.rdf.terms import py
+from ..kg.vocabulary.vocab import ExtractorSpec, MetricSpec, ParameterSpec, Vocabulary
 from .types import ConditionAtom
 
 if TYPE_CHECKING:

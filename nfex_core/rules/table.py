@@ -24,7 +24,7 @@ from ..evidence.cost import BudgetTerms, CostModel
 from ..evidence.groups import Grouped
 from ..evidence.index import ObservationIndex
 from ..evidence.view import EvidenceView
-from ..kg.vocab import ExtractorSpec, Value
+from ..kg.vocabulary.vocab import ExtractorSpec, Value
 from . import pruning
 from .setup import Setup
 from .statements import CompiledStatement

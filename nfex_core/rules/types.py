@@ -28,7 +28,7 @@ from pyshacl.rdfutil.compare import compare_literal
 from rdflib.term import Literal, URIRef
 
 from ..evidence.aggregate import ROBUST
-from ..kg.vocab import ExtractorSpec, ParameterSpec, Value
+from ..kg.vocabulary.vocab import ExtractorSpec, ParameterSpec, Value
 
 ContextKey = tuple[str | None, ...]
 

@@ -20,7 +20,7 @@ import numpy as np
 from nfex_slam.datasets.base import Frame, Sequence
 from nfex_slam.motion import NO_CHECKS, StepChecks, motion_direction, relative_truth, rotation_deg
 
-from ..kg.vocab import ExtractorSpec
+from ..kg.vocabulary.vocab import ExtractorSpec
 
 METRIC_EVERY = 3  # window means of m1–m7 from frames 0, 3, 6, … of the window
 DIMENSIONS = ("agent", "motion", "scene", "light", "reflectance", "texture")

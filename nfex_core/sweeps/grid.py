@@ -11,8 +11,8 @@ import itertools
 import random
 from collections.abc import Mapping
 
-from ..kg.identity import canonical
-from ..kg.vocab import ExtractorSpec, Value
+from ..kg.rdf.identity import canonical
+from ..kg.vocabulary.vocab import ExtractorSpec, Value
 
 # 24 configurations each (2·3·2·2 for ORB, 3·2·2·2 for SIFT), spanning the parameters the paper tunes:
 # number of features (NF), scale factor / octave layers (SF/NL), and detector thresholds (ST).

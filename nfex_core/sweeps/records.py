@@ -25,7 +25,7 @@ from rdflib.namespace import PROV, RDF, RDFS, SOSA, XSD
 from rdflib.term import Literal, URIRef
 
 from ..config import REPO_ROOT
-from ..kg.identity import (
+from ..kg.rdf.identity import (
     configuration_iri,
     corruption_iri,
     dataset_iri,
@@ -36,8 +36,8 @@ from ..kg.identity import (
     sequence_iri,
     setting_iri,
 )
-from ..kg.namespaces import NFEX
-from ..kg.vocab import ExtractorSpec, Vocabulary
+from ..kg.rdf.namespaces import NFEX
+from ..kg.vocabulary.vocab import ExtractorSpec, Vocabulary
 from .cells import DIMENSIONS
 
 

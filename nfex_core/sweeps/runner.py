@@ -15,8 +15,8 @@ from typing import TYPE_CHECKING, Any
 from nfex_slam.datasets.schedule import Schedule
 
 from ..errors import BadInput
-from ..kg.identity import canonical, measurement_iri
-from ..kg.namespaces import PREFIXES
+from ..kg.rdf.identity import canonical, measurement_iri
+from ..kg.rdf.namespaces import PREFIXES
 from ..rules.motion import load_step_checks
 from .cells import Cell, init_worker, run_cell
 from .grid import grid
@@ -186,7 +186,7 @@ def _flush(kg: KnowledgeGraph, csv_path: Path, rows: list[dict[str, Any]], pendi
 def _replace(kg: KnowledgeGraph, rows: Sequence[dict[str, Any]], vocab: Any, run: RunInfo, author: str, message: str) -> None:
     """One transaction: the rows' Measurements replace any earlier ones of the same cells (a re-measured
     cell must not carry two values of a functional property)."""
-    from ..kg.changes import ChangeSet, graph_triples
+    from ..kg.storage.changes import ChangeSet, graph_triples
 
     iris = " ".join(f"<{measurement_iri(str(r['cell']))}>" for r in rows)
     old = kg.construct(

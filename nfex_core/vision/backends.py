@@ -26,7 +26,7 @@ from ..errors import UnknownName
 from .availability import Availability
 
 if TYPE_CHECKING:
-    from ..kg.vocab import ExtractorSpec
+    from ..kg.vocabulary.vocab import ExtractorSpec
 
 
 def _always(settings: Settings) -> Availability:

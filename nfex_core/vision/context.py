@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..context import ContextEntry
-from ..kg.vocab import Vocabulary
+from ..kg.vocabulary.vocab import Vocabulary
 from .statistics import FLOW_KEYS, FRAME_KEYS, frame_statistics
 
 __all__ = ["Context", "ContextEntry", "estimate_context", "frame_statistics", "FRAME_KEYS", "FLOW_KEYS", "THRESHOLDS"]

@@ -32,7 +32,7 @@ from nfex_slam.features import Features, as_grey_u8, detector, extract
 
 from ..config import Settings
 from ..errors import BadInput, UnknownName
-from ..kg.vocab import ExtractorSpec, Value, Vocabulary
+from ..kg.vocabulary.vocab import ExtractorSpec, Value, Vocabulary
 from .backends import backend
 from .work import Work
 

@@ -25,8 +25,8 @@ from rdflib.term import URIRef
 
 from nfex_core.errors import BadInput, NfexError, NotFound, PreconditionFailed
 from nfex_core.kg import ChangeSet, CommitResult, KnowledgeGraph, graph_triples
-from nfex_core.kg.backends import GRAPH_FORMATS
-from nfex_core.kg.terms import Triple, n3
+from nfex_core.kg.rdf.terms import Triple, n3
+from nfex_core.kg.storage.backends import GRAPH_FORMATS
 
 from ..deps import EditorDep, IfMatchDep, KGDep
 from ..editing import RDF_BODY, rdf_body

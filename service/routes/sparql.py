@@ -20,9 +20,9 @@ from fastapi.responses import Response
 from rdflib.namespace import RDF, RDFS
 
 from nfex_core.errors import BadInput, ParseError
-from nfex_core.kg.backends import GRAPH_FORMATS, RESULT_FORMATS
-from nfex_core.kg.sparql_gate import gate_query
-from nfex_core.kg.sparql_query import at_user_lines, with_prefixes
+from nfex_core.kg.storage.backends import GRAPH_FORMATS, RESULT_FORMATS
+from nfex_core.kg.storage.sparql_gate import gate_query
+from nfex_core.kg.storage.sparql_query import at_user_lines, with_prefixes
 
 from ..bodies import media_type, utf8_text
 from ..deps import EditorDep, IfMatchDep, KGDep

@@ -10,7 +10,7 @@ from typing import Any
 from fastapi import APIRouter, Query, Response
 
 from nfex_core.kg import ChangeSet
-from nfex_core.kg.terms import triple_n3
+from nfex_core.kg.rdf.terms import triple_n3
 
 from ..deps import EditorDep, IfMatchDep, KGDep
 from ..schemas import (

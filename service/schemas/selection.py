@@ -20,7 +20,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field
 from pydantic_core import to_json
 
-Value = int | float | bool  # a parameter value, as nfex_core.kg.vocab.Value
+Value = int | float | bool  # a parameter value, as nfex_core.kg.vocabulary.vocab.Value
 
 
 class Out(BaseModel):

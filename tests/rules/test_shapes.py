@@ -9,7 +9,7 @@ import pytest
 
 from nfex_core.errors import ValidationFailed
 from nfex_core.kg import KnowledgeGraph, parse_rdf
-from nfex_core.kg.sparql_query import with_prefixes
+from nfex_core.kg.storage.sparql_query import with_prefixes
 
 PREFIXES = """
 @prefix nfex: <https://w3id.org/nfex#> .

@@ -114,7 +114,7 @@ def test_the_warm_up_freezes_what_start_up_built_and_reads_the_shapes_footprint(
     from types import SimpleNamespace
 
     from nfex_core.kg import parse_rdf
-    from nfex_core.kg.validation import shapes_in
+    from nfex_core.kg.shacl.validation import shapes_in
     from service.config import Settings
     from service.main import _warm
 

@@ -2,7 +2,7 @@
 
 rdflib parses SPARQL with a pyparsing grammar that is shared and not thread-safe (RDFLib/rdflib#1282), and
 nFEX parses from several threads: the commits' validation (pySHACL's SPARQL constraints), the footprints of
-rules and shapes (kg/footprint.py), the reach of an update (kg/update_reach.py). Every parse holds this lock.
+rules and shapes (kg/storage/footprint.py), the reach of an update (kg/storage/update_reach.py). Every parse holds this lock.
 """
 from __future__ import annotations
 

@@ -12,9 +12,9 @@ from collections.abc import Callable, Iterable, Iterator
 from rdflib.namespace import RDF, RDFS
 from rdflib.term import Node, URIRef
 
-from .backends import Backend
-from .changes import ChangeSet
-from .terms import Triple, n3
+from ..rdf.terms import Triple, n3
+from ..storage.backends import Backend
+from ..storage.changes import ChangeSet
 
 CHUNK = 400
 

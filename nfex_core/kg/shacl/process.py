@@ -13,7 +13,7 @@ The worker keeps pySHACL's shapes graph (``Shapes.pyshacl_graph``) of the shapes
 ``Shapes.token``; a commit sends only its data triples and focus nodes (a few hundred triples pickled), and
 the shapes once per new ``Shapes`` (the first validation after an edit of the shapes, or ``warm``). The
 verdict is the in-process one: the same function (``validation.run_pyshacl``) runs on the same triples;
-``tests/nfex_core/kg/test_shacl_process.py`` compares the two on random changes.
+``tests/nfex_core/kg/shacl/test_process.py`` compares the two on random changes.
 
 The worker is a Python process running ``main`` here, spoken to over its stdin and stdout (length-prefixed
 pickles; it is this process's own child). Not ``multiprocessing``: its spawn re-imports the parent's main
@@ -36,8 +36,8 @@ from collections.abc import Collection, Sequence
 from pathlib import Path
 from typing import IO, TYPE_CHECKING, Any
 
-from ..errors import BadInput, ValidationResult
-from .terms import Triple
+from ...errors import BadInput, ValidationResult
+from ..rdf.terms import Triple
 
 if TYPE_CHECKING:
     from rdflib.term import Node
@@ -143,7 +143,7 @@ class ShaclProcess:
         root = str(Path(__file__).resolve().parents[2])  # where nfex_core is importable from, installed or not
         env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")])))
         # -P: not the working directory first on the path, so the worker imports the nfex_core this process runs
-        proc = subprocess.Popen([sys.executable, "-P", "-c", "from nfex_core.kg.shacl_process import main; main()"], stdin=subprocess.PIPE,
+        proc = subprocess.Popen([sys.executable, "-P", "-c", "from nfex_core.kg.shacl.process import main; main()"], stdin=subprocess.PIPE,
                                 stdout=subprocess.PIPE, env=env)
         self._proc = proc
         self.starts += 1

@@ -16,9 +16,9 @@ from pyshacl.shapes_graph import ShapesGraph
 from rdflib.namespace import RDF, RDFS, SH
 from rdflib.term import Literal, Node, URIRef
 
-from ..errors import ValidationResult
-from .rdflib_sparql import prepare_query
-from .terms import Triple, is_skolem
+from ...errors import ValidationResult
+from ..rdf.rdflib_sparql import prepare_query
+from ..rdf.terms import Triple, is_skolem
 
 
 class PreparedQueryGraph(rdflib.Graph):

@@ -16,14 +16,14 @@ import rdflib
 from rdflib.namespace import RDF, RDFS, SH
 from rdflib.term import BNode, Node, URIRef
 
-from .backends import Backend
+from ..rdf.namespaces import NFEX
+from ..rdf.terms import Triple, is_skolem, n3
+from ..storage.backends import Backend
+from ..storage.changes import ChangeSet
+from ..storage.footprint import footprint
+from ..storage.history import prefix_block
 from .candidate import chunks
-from .changes import ChangeSet
-from .footprint import footprint
-from .history import prefix_block
-from .namespaces import NFEX
 from .pyshacl_focus import _ShapesGraph
-from .terms import Triple, is_skolem, n3
 
 
 @dataclass(frozen=True)
@@ -54,7 +54,7 @@ class Shapes:
 
     @functools.cached_property
     def footprint(self) -> frozenset[tuple[str, str | None]] | None:
-        """What a shape can read beyond a focus node's own triples (kg/footprint.py pairs): every predicate of a
+        """What a shape can read beyond a focus node's own triples (kg/storage/footprint.py pairs): every predicate of a
         property path, a target or a property-pair constraint, those of ``nfex:readsBackwardAlong``, types and
         the class hierarchy, and the footprint of every SPARQL constraint; None (anything) where a shape is
         ``sh:closed`` or a constraint's query has no footprint. ``validate_change`` walks back only from the

@@ -11,7 +11,7 @@ These are the focus nodes. The data graph handed to pySHACL is their neighbourho
 state (store − removed + added): outgoing edges ``FORWARD_DEPTH`` steps deep, the types of every node
 reached, the class hierarchy, and — for shapes that compare a node with its siblings, such as unique
 parameter names per extractor — the incoming edges along the predicates those shapes declare with
-``nfex:readsBackwardAlong``. ``tests/nfex_core/kg/test_validation.py`` checks on random changes that
+``nfex:readsBackwardAlong``. ``tests/nfex_core/kg/shacl/test_validation.py`` checks on random changes that
 this gives the same verdict as validating the whole candidate graph. pySHACL then validates the focus
 nodes only — the neighbourhood's other nodes are there to be read, not judged (pyshacl_focus.py ``_OnFocus``) —
 with a shapes graph it keeps across validations (shacl_shapes.py ``Shapes.pyshacl_graph``;
@@ -37,15 +37,15 @@ from pyshacl.validator import Validator
 from rdflib.namespace import RDF, SH
 from rdflib.term import Node, URIRef
 
-from ..errors import BadInput, ValidationResult
-from .backends import Backend
+from ...errors import BadInput, ValidationResult
+from ..rdf.namespaces import NFEX
+from ..rdf.terms import Triple, n3
+from ..storage.backends import Backend
+from ..storage.changes import ChangeSet
+from ..storage.footprint import pairs, reads
 from .candidate import CandidateView, Neighbourhood
-from .changes import ChangeSet
-from .footprint import pairs, reads
-from .namespaces import NFEX
 from .pyshacl_focus import _as_prepared, parse_report
-from .shacl_shapes import Shapes, extract_shapes, shapes_closure, shapes_in, touches_shapes
-from .terms import Triple, n3
+from .shapes import Shapes, extract_shapes, shapes_closure, shapes_in, touches_shapes
 
 __all__ = ["CandidateView", "Neighbourhood", "Report", "Shapes", "core_violations", "extract_shapes", "parse_report",
            "run_pyshacl", "shapes_closure", "shapes_in", "touches_shapes", "validate_change", "validate_graph"]

@@ -17,7 +17,7 @@ import pyoxigraph as ox
 import rdflib
 from rdflib.term import BNode, Literal, Node, URIRef
 
-from .terms import Triple, n3, plain
+from ..rdf.terms import Triple, n3, plain
 
 Row = dict[str, Node]
 DEADLOCK_RETRIES = 8
@@ -87,7 +87,7 @@ class Backend(ABC):
 
     exclusive: bool = False
     """True when this process alone writes the store (an embedded folder is locked by its process):
-    commits then need no claims (kg/claims.py), only ``write_lock``."""
+    commits then need no claims (kg/storage/claims.py), only ``write_lock``."""
 
     @property
     def write_lock(self) -> threading.Lock:

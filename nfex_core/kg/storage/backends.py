@@ -21,8 +21,9 @@ from typing import Any
 
 import pyoxigraph as ox
 
-from ..config import Settings
-from ..errors import BadInput, ParseError, StoreUnavailable
+from ...config import Settings
+from ...errors import BadInput, ParseError, StoreUnavailable
+from ..rdf.terms import Triple, oxigraph_triples, term_converter, to_oxigraph
 from .backend_api import (
     DEADLOCK_RETRIES,
     GRAPH_FORMATS,
@@ -36,7 +37,6 @@ from .backend_api import (
     json_bindings,
 )
 from .remote import RemoteBackend
-from .terms import Triple, oxigraph_triples, term_converter, to_oxigraph
 
 
 class EmbeddedBackend(Backend):
@@ -173,7 +173,7 @@ class EmbeddedBackend(Backend):
         self._store.load(data, format=GRAPH_FORMATS[media])
 
     def bulk_load(self, data: bytes) -> None:
-        """Load N-Quads with Oxigraph's bulk loader: faster than ``load``, and not atomic (kg/history.py
+        """Load N-Quads with Oxigraph's bulk loader: faster than ``load``, and not atomic (kg/storage/history.py
         ``bulk_write_first`` brackets it)."""
         self._store.bulk_load(data, format=ox.RdfFormat.N_QUADS)
 

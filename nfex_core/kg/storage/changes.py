@@ -15,10 +15,10 @@ import rdflib
 from rdflib.namespace import PROV, RDF
 from rdflib.term import Node, URIRef
 
-from ..errors import BadInput, ParseError
+from ...errors import BadInput, ParseError
+from ..rdf.namespaces import NFEX
+from ..rdf.terms import Triple, n3, normalise, oxigraph_triples, skolemise
 from .backends import Backend
-from .namespaces import NFEX
-from .terms import Triple, n3, normalise, oxigraph_triples, skolemise
 
 RDF_FORMATS = {
     ".ttl": "turtle",

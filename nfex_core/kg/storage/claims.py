@@ -25,9 +25,9 @@ from datetime import datetime
 from rdflib.namespace import XSD
 from rdflib.term import Literal, URIRef
 
+from ..rdf.namespaces import NFEX
+from ..rdf.terms import n3, py
 from .backends import Backend
-from .namespaces import NFEX
-from .terms import n3, py
 
 META = URIRef("urn:nfex:meta")
 BASE_TTL_S = 3.0

@@ -41,10 +41,10 @@ from rdflib.plugins.sparql.algebra import translateGroupGraphPattern
 from rdflib.plugins.sparql.parserutils import CompValue
 from rdflib.term import BNode, Node, URIRef, Variable
 
+from ..rdf.rdflib_sparql import prepare_query
+from ..rdf.terms import Triple
 from .backends import GraphReader, SelectResult
 from .history import prefix_block
-from .rdflib_sparql import prepare_query
-from .terms import Triple
 
 Footprint = frozenset[tuple[str, str | None]]  # (predicate, object or None: any)
 _OPAQUE = {"TriplesBlock", "ServiceGraphPattern", "Graph"}  # patterns not in algebra form, or not of the default graph

@@ -21,11 +21,11 @@ from typing import Any
 from rdflib.namespace import DCTERMS, PROV, RDF, XSD
 from rdflib.term import Literal, URIRef
 
+from ..rdf.namespaces import NFEX, PREFIXES
+from ..rdf.terms import Triple, n3, nt, py, triple_n3
 from .backends import Backend, EmbeddedBackend
 from .changes import ChangeSet
 from .claims import META, settle_update
-from .namespaces import NFEX, PREFIXES
-from .terms import Triple, n3, nt, py, triple_n3
 
 
 def prefix_block() -> str:

@@ -12,7 +12,8 @@ from urllib.parse import urlparse, urlunparse
 import httpx
 import pyoxigraph as ox
 
-from ..errors import BadInput, Conflict, ParseError, QueryLimitExceeded, StoreUnavailable
+from ...errors import BadInput, Conflict, ParseError, QueryLimitExceeded, StoreUnavailable
+from ..rdf.terms import Triple, from_sparql_json, oxigraph_triples
 from .backend_api import (
     DEADLOCK_RETRIES,
     SERIALIZATION_FAILURE,
@@ -21,7 +22,6 @@ from .backend_api import (
     Sink,
 )
 from .protocol import ServerAuth, dataset_params
-from .terms import Triple, from_sparql_json, oxigraph_triples
 
 
 class RemoteBackend(Backend):

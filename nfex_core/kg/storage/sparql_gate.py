@@ -19,7 +19,7 @@ remote):
    of the whole process, or of ``oxigraph serve``) at a few thousand levels. Flat lists (triples, ``VALUES``
    rows, ``INSERT DATA``'s quads, the prologue, an update's operations) count once.
 
-``tests/nfex_core/kg/test_sparql_gate.py`` generates spellings (escapes, comments, case, prefixed names) and
+``tests/nfex_core/kg/storage/test_sparql_gate.py`` generates spellings (escapes, comments, case, prefixed names) and
 checks that the gate and Oxigraph agree on whether a text holds a forbidden operation; the hostile-input suite
 (``tests/service/test_hostile.py``) sends the bounds' worst shapes to a real ``oxigraph serve``.
 """
@@ -34,8 +34,8 @@ from typing import Any
 from rdflib.namespace import SH
 from rdflib.term import Literal
 
-from ..errors import BadInput, ParseError
-from .namespaces import NFEX
+from ...errors import BadInput, ParseError
+from ..rdf.namespaces import NFEX
 
 MAX_CHARS = 200_000
 MAX_DEPTH = 400

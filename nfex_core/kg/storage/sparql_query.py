@@ -8,8 +8,8 @@ from __future__ import annotations
 import re
 from collections.abc import Callable
 
-from ..errors import BadInput, ParseError
-from .namespaces import PREFIXES
+from ...errors import BadInput, ParseError
+from ..rdf.namespaces import PREFIXES
 
 _DECLARED = re.compile(r"PREFIX\s+([A-Za-z0-9_.-]*):", re.IGNORECASE)
 

@@ -8,7 +8,7 @@ triples the update can read or delete (``update_reach``: the triples matching it
 templates and DELETE DATA), runs the update on that slice, and asks the store which of the inserted
 triples it already holds. An update of INSERT DATA alone copies nothing. Where the slice cannot be bounded
 (``?s ?p ?o``, a negated property set, a zero-length path between variables, text rdflib cannot parse)
-the whole graph is copied, as before. ``tests/nfex_core/kg/test_sparql_update.py`` compares the two on
+the whole graph is copied, as before. ``tests/nfex_core/kg/storage/test_sparql_update.py`` compares the two on
 random updates over random graphs.
 
 Either way the change then goes through the same validated, versioned commit as any other write.
@@ -23,10 +23,10 @@ from typing import TYPE_CHECKING
 import pyoxigraph as ox
 import rdflib
 
-from ..errors import BadInput, ParseError
+from ...errors import BadInput, ParseError
+from ..rdf.terms import from_oxigraph
 from .changes import ChangeSet
 from .sparql_gate import gate_update
-from .terms import from_oxigraph
 from .update_reach import EVERYTHING, reach
 
 if TYPE_CHECKING:

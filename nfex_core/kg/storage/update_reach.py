@@ -33,9 +33,9 @@ import rdflib
 from rdflib.paths import AlternativePath, InvPath, MulPath, NegatedPath, Path, SequencePath
 from rdflib.term import BNode, Literal, URIRef, Variable
 
+from ..rdf.rdflib_sparql import RDFLIB_SPARQL_PARSER
+from ..rdf.terms import n3
 from .backends import Backend
-from .rdflib_sparql import RDFLIB_SPARQL_PARSER
-from .terms import n3
 
 Pattern = tuple[URIRef | None, URIRef | None, URIRef | None]
 """A triple pattern to copy: None matches any term."""

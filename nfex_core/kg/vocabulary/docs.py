@@ -5,7 +5,7 @@ pyLODE documents one ontology: the modules are merged into one graph under the c
 not vocabulary. The page is written to a folder that is not committed (default ``out/docs/ontology``):
 it is a build product of the Turtle files, regenerated on every change, and a committed copy would drift.
 
-    python -m nfex_core.kg.docs [DEST]      # needs the ``docs`` extra (pyLODE)
+    python -m nfex_core.kg.vocabulary.docs [DEST]      # needs the ``docs`` extra (pyLODE)
 """
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from pathlib import Path
 
 import rdflib
 
-from ..config import Settings
+from ...config import Settings
 from .owl import owl_only
 
 

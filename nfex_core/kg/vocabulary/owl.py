@@ -14,8 +14,8 @@ import rdflib
 from rdflib.namespace import OWL, RDF, SH
 from rdflib.term import Node, URIRef
 
-from .namespaces import PREFIXES
-from .terms import is_skolem
+from ..rdf.namespaces import PREFIXES
+from ..rdf.terms import is_skolem
 
 CORE = URIRef("https://w3id.org/nfex")
 _MODULES = "https://w3id.org/nfex/"

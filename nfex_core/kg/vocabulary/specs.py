@@ -15,7 +15,7 @@ from nfex_slam.features import Recipe
 from rdflib.namespace import XSD
 from rdflib.term import Literal, URIRef
 
-from ..errors import ParameterError, UnknownName
+from ...errors import ParameterError, UnknownName
 
 Value = int | float | bool
 

@@ -12,8 +12,9 @@ from dataclasses import dataclass, field
 
 from rdflib.term import URIRef
 
-from ..errors import UnknownName
-from .backends import GraphReader
+from ...errors import UnknownName
+from ..rdf.terms import py
+from ..storage.backends import GraphReader
 from .specs import (
     ConditionValueSpec,
     DimensionSpec,
@@ -23,7 +24,6 @@ from .specs import (
     ParameterSpec,
     Value,
 )
-from .terms import py
 
 __all__ = ["ConditionValueSpec", "DimensionSpec", "ExtractorSpec", "MetricSpec", "NormRuleSpec", "ParameterSpec", "Value",
            "Vocabulary"]  # the value types live in specs.py; callers import them from here

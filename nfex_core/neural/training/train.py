@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ...kg.vocab import Vocabulary
+from ...kg.vocabulary.vocab import Vocabulary
 from ..artifacts import NeuralModel, code_version, new_version, sha256_file
 from ..encoding import InputVocabulary, Scaler
 from ..paramnet import ParamNet

@@ -8,7 +8,7 @@ line and column of the offending name.
 from __future__ import annotations
 
 from ...errors import NfexError, ParameterError, UnknownName
-from ...kg.vocab import Vocabulary
+from ...kg.vocabulary.vocab import Vocabulary
 from ..types import MAX_ESCALATIONS, PAIR_COMPARATORS, PAIR_SIGNALS
 from .parser import Pos, Program, Statement
 

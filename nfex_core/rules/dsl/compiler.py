@@ -20,9 +20,9 @@ from rdflib.namespace import RDF, RDFS, XSD
 from rdflib.term import Literal, URIRef
 
 from ...errors import NotFound
-from ...kg.identity import program_iri, statement_iri
-from ...kg.namespaces import NFEX
-from ...kg.vocab import (
+from ...kg.rdf.identity import program_iri, statement_iri
+from ...kg.rdf.namespaces import NFEX
+from ...kg.vocabulary.vocab import (
     ConditionValueSpec,
     DimensionSpec,
     ExtractorSpec,

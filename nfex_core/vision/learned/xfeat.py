@@ -31,7 +31,7 @@ from nfex_slam.features import Features
 
 from ...config import Settings
 from ...errors import ParameterError
-from ...kg.vocab import ExtractorSpec, Value
+from ...kg.vocabulary.vocab import ExtractorSpec, Value
 from .model import DESCRIPTOR_SIZE, STRIDE, XFeatNetwork, network
 from .network import CELL
 

@@ -12,7 +12,7 @@ import rdflib
 
 from nfex_core.advisor import Advisor
 from nfex_core.kg import KnowledgeGraph
-from nfex_core.kg.namespaces import NFEX
+from nfex_core.kg.rdf.namespaces import NFEX
 
 from ..evidence.test_cost import add_rows, row
 

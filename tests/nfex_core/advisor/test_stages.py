@@ -40,7 +40,13 @@ from nfex_core.advisor.stages import (
 )
 from nfex_core.errors import NoCandidate, UnknownName
 from nfex_core.evidence.cost import BudgetTerms, CostModel, ExtractorCost
-from nfex_core.kg.vocab import ConditionValueSpec, DimensionSpec, ExtractorSpec, ParameterSpec, Vocabulary
+from nfex_core.kg.vocabulary.vocab import (
+    ConditionValueSpec,
+    DimensionSpec,
+    ExtractorSpec,
+    ParameterSpec,
+    Vocabulary,
+)
 from nfex_core.neural.serve import NeuralStep
 from nfex_core.rules.engine import RuleTable
 from nfex_core.rules.types import AcceptRule, Citation, Decision, Evidence, Factor, Policy

@@ -114,7 +114,7 @@ def test_a_report_rereads_only_its_own_measurement_and_the_compiled_table_equals
 
 
 def test_a_change_no_row_reads_rereads_nothing(shipped_kg: KnowledgeGraph) -> None:
-    """An extractor's ``rdfs:seeAlso`` is outside the footprint of the rows' queries (kg/footprint.py): nothing
+    """An extractor's ``rdfs:seeAlso`` is outside the footprint of the rows' queries (kg/storage/footprint.py): nothing
     is read again, though every Measurement of that extractor is two steps from it; a sequence's label is
     inside it, and that sequence's Measurements are read again."""
     before = ObservationIndex.read(shipped_kg)

@@ -9,7 +9,7 @@ import dataclasses
 from nfex_core.evidence.observations import Observation, read_observations
 from nfex_core.feedback import Feedback, ReportWriter
 from nfex_core.kg import KnowledgeGraph
-from nfex_core.kg.terms import py
+from nfex_core.kg.rdf.terms import py
 from tests.conftest import SparqlServer
 
 PLAIN = """SELECT ?m ?xname ?cfg ?dim ?val ?ate ?ms ?w ?h ?failed ?lost ?frames ?seq ?seqLabel ?run ?reporter ?accepted WHERE {

@@ -17,7 +17,7 @@ from nfex_core.evidence.index import ObservationIndex
 from nfex_core.evidence.view import EvidenceView, evidence_view, summary_lines
 from nfex_core.feedback import Feedback, ReportWriter
 from nfex_core.kg import KnowledgeGraph
-from nfex_core.kg.footprint import Reach, anchors
+from nfex_core.kg.storage.footprint import Reach, anchors
 from nfex_core.rules import pruning
 from nfex_core.rules.engine import compile_table
 from tests.conftest import CARRIED_EXAMPLES
@@ -26,7 +26,7 @@ from .test_index import OPS, PREFIXES, _apply
 
 
 def _reach(kg: KnowledgeGraph) -> Reach:
-    """What the graph's SPARQL rules can read (kg/footprint.py): the view a compile makes holds only these."""
+    """What the graph's SPARQL rules can read (kg/storage/footprint.py): the view a compile makes holds only these."""
     found = [anchors(rule.query) for rule in pruning.load_rules(kg)]
     assert all(a is not None for a in found)
     return Reach.of(a for stars in found for a in stars)  # type: ignore[union-attr]
@@ -151,7 +151,7 @@ def test_a_literal_with_a_line_break_is_carried(shipped_kg: KnowledgeGraph) -> N
 
 def test_the_rules_decide_on_their_reach_as_on_the_whole_graph(shipped_kg: KnowledgeGraph, bare_kg: KnowledgeGraph,
                                                                monkeypatch) -> None:  # type: ignore[no-untyped-def]
-    """The view copies only what the rules can read (kg/footprint.py ``Reach``): the shipped rules decide on it as
+    """The view copies only what the rules can read (kg/storage/footprint.py ``Reach``): the shipped rules decide on it as
     on a copy of the whole graph, with their measurements (rules silent or measured) and without (the expert
     prior prunes)."""
     from nfex_core.rules import engine

@@ -19,10 +19,11 @@ from rdflib import Literal, URIRef
 from rdflib.namespace import RDFS
 
 from nfex_core.errors import Conflict
-from nfex_core.kg import ChangeSet, KnowledgeGraph, claims
+from nfex_core.kg import ChangeSet, KnowledgeGraph
 from nfex_core.kg import store as store_module
-from nfex_core.kg.claims import Rival
-from nfex_core.kg.namespaces import NFEX
+from nfex_core.kg.rdf.namespaces import NFEX
+from nfex_core.kg.storage import claims
+from nfex_core.kg.storage.claims import Rival
 from nfex_core.knowledge import open_graph
 
 WRITER = r"""
@@ -145,7 +146,7 @@ def test_a_live_claim_is_reported_as_what_it_is(oxigraph_server: str, monkeypatc
 SEEDER = r"""
 import sys, time
 from nfex_core.kg import KnowledgeGraph
-from nfex_core.kg.backends import EmbeddedBackend
+from nfex_core.kg.storage.backends import EmbeddedBackend
 from nfex_core.knowledge import seed
 
 real_bulk_load = EmbeddedBackend.bulk_load
@@ -161,7 +162,7 @@ seed(KnowledgeGraph.open(sys.argv[1]))
 
 
 def test_a_seed_killed_in_its_bulk_write_is_taken_out_at_the_next_open(tmp_path: Path) -> None:
-    """The bulk loader is not atomic (kg/history.py ``bulk_write_first``): a seeder killed with half its quads
+    """The bulk loader is not atomic (kg/storage/history.py ``bulk_write_first``): a seeder killed with half its quads
     written leaves them behind with the marker; the next open takes them out, and the store seeds as new."""
     store_path = tmp_path / "store"
     script = tmp_path / "seeder.py"

@@ -11,9 +11,9 @@ import rdflib
 from nfex_core.config import Settings
 from nfex_core.errors import DataMissing, ParseError
 from nfex_core.kg import KnowledgeGraph
-from nfex_core.kg.changes import graph_triples, read_turtle_triples
 from nfex_core.kg.shipped import ontology_files, ontology_graph, ontology_vocabulary, shapes_graph
-from nfex_core.kg.vocab import Vocabulary
+from nfex_core.kg.storage.changes import graph_triples, read_turtle_triples
+from nfex_core.kg.vocabulary.vocab import Vocabulary
 
 
 def rdflib_parse(paths: list[Path]) -> rdflib.Graph:

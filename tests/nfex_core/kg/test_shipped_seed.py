@@ -15,10 +15,10 @@ from rdflib import Literal, URIRef
 from nfex_core.config import Settings
 from nfex_core.errors import PreconditionFailed
 from nfex_core.kg import ChangeSet, KnowledgeGraph
-from nfex_core.kg.history import ChangeText, version_iri
-from nfex_core.kg.namespaces import NFEX
+from nfex_core.kg.rdf.namespaces import NFEX
+from nfex_core.kg.rdf.terms import n3
+from nfex_core.kg.storage.history import ChangeText, version_iri
 from nfex_core.kg.store import META
-from nfex_core.kg.terms import n3
 from nfex_core.knowledge import SEED_AUTHOR, SEED_MESSAGE, open_graph, seed, seed_graph, seed_triples
 from nfex_core.knowledge.seed_content import seed_content
 

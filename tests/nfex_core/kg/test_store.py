@@ -7,7 +7,7 @@ from rdflib.namespace import RDFS
 
 from nfex_core.errors import BadInput, NotFound, ParseError, PreconditionFailed, ValidationFailed
 from nfex_core.kg import ChangeSet, KnowledgeGraph, graph_triples, parse_rdf
-from nfex_core.kg.namespaces import NFEX
+from nfex_core.kg.rdf.namespaces import NFEX
 
 P = "@prefix nfex: <https://w3id.org/nfex#> . @prefix rdfs: <http://www.w3.org/2000/01/rdf-schema#> .\n"
 CONFIG = P + """
@@ -168,7 +168,7 @@ def test_seed_sync_removes_what_left_the_files(kg: KnowledgeGraph, tmp_path, mon
 
 
 def test_shapes_carry_over_a_commit_that_leaves_them_alone(kg: KnowledgeGraph) -> None:
-    from nfex_core.kg.validation import extract_shapes
+    from nfex_core.kg.shacl.validation import extract_shapes
 
     before = kg.shapes()
     kg.add(parse_rdf(CONFIG), author="a")
@@ -197,7 +197,7 @@ def test_the_vocabulary_carries_over_a_change_it_does_not_read(kg: KnowledgeGrap
     """A carried vocabulary (the change missed its queries' footprint) equals one loaded afresh, edit after edit."""
     import dataclasses
 
-    from nfex_core.kg.vocab import Vocabulary
+    from nfex_core.kg.vocabulary.vocab import Vocabulary
 
     statement = str(kg.select("SELECT ?s WHERE { ?s nfex:inProgram ?p } ORDER BY ?s").rows[0]["s"])
     for edit in edits:

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from nfex_core.config import Settings
-from nfex_core.kg.changes import graph_triples
+from nfex_core.kg.storage.changes import graph_triples
 from nfex_core.knowledge import seed_graph
 from nfex_core.knowledge.seed_content import KEEP, digest, seed_content
 

@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 from nfex_core.kg import KnowledgeGraph
-from nfex_core.kg.vocab import Vocabulary
+from nfex_core.kg.vocabulary.vocab import Vocabulary
 from nfex_core.neural.artifacts import NeuralModel
 from nfex_core.neural.training.train import TrainReport, train
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from nfex_core.kg.vocab import Vocabulary
+from nfex_core.kg.vocabulary.vocab import Vocabulary
 
 DIMS = ("agent", "motion", "scene", "light", "reflectance", "texture")
 METRICS = ("texturedness", "dissimilarity", "motion", "stability", "density", "distinctiveness", "repeatability")

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from nfex_core.kg import KnowledgeGraph
-from nfex_core.kg.sparql_query import with_prefixes
+from nfex_core.kg.storage.sparql_query import with_prefixes
 from nfex_core.neural.artifacts import NeuralModel, find_model
 
 NARROW_NFEATURES = """

@@ -8,7 +8,7 @@ import pytest
 from nfex_core.advisor import Advisor
 from nfex_core.errors import UnknownName
 from nfex_core.kg import KnowledgeGraph
-from nfex_core.kg.sparql_query import with_prefixes
+from nfex_core.kg.storage.sparql_query import with_prefixes
 from nfex_core.rules.fitness import adjust_params
 
 from .test_artifacts import NARROW_NFEATURES

@@ -137,7 +137,7 @@ def test_evaluate_gives_each_context_its_index_in_product_order() -> None:
     """A rule reading two context variables prunes in exactly the contexts itertools.product numbers as the engine's keys."""
     import itertools
 
-    from nfex_core.kg.backends import EmbeddedBackend
+    from nfex_core.kg.storage.backends import EmbeddedBackend
     from nfex_core.rules.pruning import SparqlRule, evaluate
 
     ex = "https://example.org/"

@@ -13,9 +13,9 @@ from hypothesis import strategies as st
 
 from nfex_core.feedback import Feedback, ReportWriter
 from nfex_core.kg import KnowledgeGraph
-from nfex_core.kg.changes import ChangeSet, evidence_only, graph_triples
-from nfex_core.kg.footprint import footprint, reads
-from nfex_core.kg.namespaces import NFEX, RDF
+from nfex_core.kg.rdf.namespaces import NFEX, RDF
+from nfex_core.kg.storage.changes import ChangeSet, evidence_only, graph_triples
+from nfex_core.kg.storage.footprint import footprint, reads
 from nfex_core.rules import pruning
 from nfex_core.rules.dsl.programs import compile_text
 from nfex_core.rules.engine import RuleTable, compile_table
@@ -302,7 +302,7 @@ def test_an_editors_change_that_no_rule_reads_keeps_every_rules_hits(shipped_kg:
 
 
 def test_a_report_outside_a_rules_star_does_not_run_it(bare_kg: KnowledgeGraph, monkeypatch) -> None:  # type: ignore[no-untyped-def]
-    """The expert rule takes out extractors with Measurements under agent = car and motion = fast (kg/footprint.py
+    """The expert rule takes out extractors with Measurements under agent = car and motion = fast (kg/storage/footprint.py
     stars): an admitted report under car + dark leaves its hits as they were without running it; one under car +
     fast runs it, and the prior yields; once it has, more reports under car + fast can only take rows out of an
     empty answer (signs), so they do not run it either — until a measurement under car + fast is deleted. Each

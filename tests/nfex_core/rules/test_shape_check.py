@@ -10,7 +10,7 @@ from rdflib import Literal
 from rdflib.namespace import XSD
 
 from nfex_core.kg import KnowledgeGraph
-from nfex_core.kg.vocab import Vocabulary
+from nfex_core.kg.vocabulary.vocab import Vocabulary
 from nfex_core.rules.shape_check import repair
 from nfex_core.rules.types import Bound
 

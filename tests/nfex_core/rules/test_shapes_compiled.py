@@ -16,8 +16,8 @@ import rdflib
 from rdflib.term import URIRef
 
 from nfex_core.kg import KnowledgeGraph
-from nfex_core.kg.validation import Shapes, run_pyshacl, shapes_closure
-from nfex_core.kg.vocab import ParameterSpec, Value, Vocabulary
+from nfex_core.kg.shacl.validation import Shapes, run_pyshacl, shapes_closure
+from nfex_core.kg.vocabulary.vocab import ParameterSpec, Value, Vocabulary
 from nfex_core.rules.engine import compile_table
 from nfex_core.rules.shape_check import enforce, materialise, violations
 from nfex_core.rules.shapes import CompiledShape, context_shape_nodes

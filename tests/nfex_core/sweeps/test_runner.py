@@ -49,8 +49,8 @@ def test_sweep_writes_rows_and_measurements_and_resumes(kg: KnowledgeGraph, data
     # only the cells asked for, compressed N-Triples: exactly their Measurements, and it loads back
     from rdflib import RDF
 
-    from nfex_core.kg.changes import read_rdf_file
-    from nfex_core.kg.namespaces import NFEX
+    from nfex_core.kg.rdf.namespaces import NFEX
+    from nfex_core.kg.storage.changes import read_rdf_file
 
     mine = tmp_path / "m.nt.gz"
     cells = [r["cell"] for r in table.read(csv)][:2]

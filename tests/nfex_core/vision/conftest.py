@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from nfex_core.kg import KnowledgeGraph
-from nfex_core.kg.vocab import Vocabulary
+from nfex_core.kg.vocabulary.vocab import Vocabulary
 from nfex_core.vision.registry import ExtractorRegistry
 
 EUROC = "euroc/V1_01_easy_micro/mav0/cam0/data"

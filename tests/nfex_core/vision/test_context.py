@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nfex_core.kg.vocab import Vocabulary
+from nfex_core.kg.vocabulary.vocab import Vocabulary
 from nfex_core.vision.context import FLOW_KEYS, FRAME_KEYS, estimate_context, frame_statistics
 from nfex_core.vision.transforms import glare, labelled_cases, translate
 

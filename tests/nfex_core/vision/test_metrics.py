@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from nfex_slam.features import Features
 
-from nfex_core.kg.vocab import Vocabulary
+from nfex_core.kg.vocabulary.vocab import Vocabulary
 from nfex_core.vision import metrics as M
 from nfex_core.vision.metrics import compute_metrics
 from nfex_core.vision.registry import ExtractorRegistry

@@ -12,7 +12,7 @@ from nfex_slam.features import Features
 
 from nfex_core.errors import ParameterError, UnknownName
 from nfex_core.kg import KnowledgeGraph
-from nfex_core.kg.vocab import Vocabulary
+from nfex_core.kg.vocabulary.vocab import Vocabulary
 from nfex_core.vision.registry import ExtractorRegistry
 
 ONTOLOGY = [Path(__file__).resolve().parents[3] / "ontology" / f for f in ("extractors.ttl", "learned.ttl")]

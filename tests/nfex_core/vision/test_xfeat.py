@@ -13,7 +13,7 @@ import pytest
 
 from nfex_core.config import Settings
 from nfex_core.errors import ModelUnavailable, ParameterError
-from nfex_core.kg.vocab import Vocabulary
+from nfex_core.kg.vocabulary.vocab import Vocabulary
 from nfex_core.knowledge import open_graph
 from nfex_core.vision.backends import unavailable
 from nfex_core.vision.learned import model

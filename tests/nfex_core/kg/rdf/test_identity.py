@@ -10,8 +10,8 @@ from nfex_slam.datasets.synthetic import make_sequence
 
 from nfex_core.feedback import Feedback, measurement_graph
 from nfex_core.kg import KnowledgeGraph
-from nfex_core.kg.identity import sequence_iri
-from nfex_core.kg.namespaces import NFEX
+from nfex_core.kg.rdf.identity import sequence_iri
+from nfex_core.kg.rdf.namespaces import NFEX
 from nfex_core.sweeps.records import sequence_triples
 
 NAMES = st.from_regex(r"[a-z0-9][a-z0-9_-]{0,11}", fullmatch=True)

@@ -1,4 +1,4 @@
-"""kg/terms.py: Oxigraph's terms as rdflib's, converted once per process (term_converter's memo), and the same
+"""kg/rdf/terms.py: Oxigraph's terms as rdflib's, converted once per process (term_converter's memo), and the same
 whether the memo holds them or not."""
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from nfex_core.kg import terms
-from nfex_core.kg.terms import from_oxigraph, term_converter
+from nfex_core.kg.rdf import terms
+from nfex_core.kg.rdf.terms import from_oxigraph, term_converter
 
 XSD = "http://www.w3.org/2001/XMLSchema#"
 oxterm = st.one_of(

@@ -1,4 +1,4 @@
-"""pySHACL in a worker process (nfex_core/kg/shacl_process.py) gives the reports validating in this process gives:
+"""pySHACL in a worker process (nfex_core/kg/shacl/process.py) gives the reports validating in this process gives:
 on random writes (the strategies of test_validation.py), after the shapes change, and when the worker dies."""
 from __future__ import annotations
 
@@ -8,9 +8,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from nfex_core.kg import ChangeSet, KnowledgeGraph, parse_rdf, shacl_process
-from nfex_core.kg.shacl_process import ShaclProcess
-from nfex_core.kg.validation import Report, run_pyshacl, shapes_in, validate_change
+from nfex_core.kg import ChangeSet, KnowledgeGraph, parse_rdf
+from nfex_core.kg.shacl import process as shacl_process
+from nfex_core.kg.shacl.process import ShaclProcess
+from nfex_core.kg.shacl.validation import Report, run_pyshacl, shapes_in, validate_change
 
 from .test_validation import (  # noqa: F401  (graph is a fixture)
     edit_parameter,

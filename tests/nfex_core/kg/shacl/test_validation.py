@@ -16,8 +16,8 @@ from rdflib import Literal, URIRef
 from rdflib.namespace import RDF, XSD
 
 from nfex_core.kg import ChangeSet, KnowledgeGraph, parse_rdf
-from nfex_core.kg.namespaces import NFEX, RDFS, SOSA
-from nfex_core.kg.validation import validate_graph
+from nfex_core.kg.rdf.namespaces import NFEX, RDFS, SOSA
+from nfex_core.kg.shacl.validation import validate_graph
 
 BASE = """@prefix nfex: <https://w3id.org/nfex#> .
 nfex:base_orb a nfex:Configuration ; nfex:ofExtractor nfex:ORB ; nfex:hasSetting nfex:base_orb_sf, nfex:base_orb_nf .
@@ -176,7 +176,7 @@ ex:c a ex:Thing ; ex:size 3 .
 def test_a_focused_validation_checks_nested_shapes_and_only_its_focus() -> None:
     """Regression: pySHACL's own focus_nodes option lets an sh:or over a literal, or an sh:node on a value that
     is not a focus node, pass vacuously; the focus here narrows only the top-level targets."""
-    from nfex_core.kg.validation import run_pyshacl, shapes_in
+    from nfex_core.kg.shacl.validation import run_pyshacl, shapes_in
 
     shapes = shapes_in(parse_rdf(NESTED))
     data = parse_rdf(DATA)
@@ -209,7 +209,7 @@ def writable(tmp_path, seeded_template) -> Iterator[tuple[KnowledgeGraph, object
 def test_neighbourhoods_kept_across_commits_read_what_the_store_holds(writable, data) -> None:  # type: ignore[no-untyped-def]
     """``Neighbourhood``: commit after commit, a validation from the kept neighbourhoods reads the same data graph
     and gives the same report as one that reads everything from the store."""
-    from nfex_core.kg.validation import validate_change
+    from nfex_core.kg.shacl.validation import validate_change
 
     kg, base, shapes = writable
     kinds = [new_configuration(), edit_parameter(base), remove_triple(base), new_condition_value(), new_measurement(), hub_note()]
@@ -233,8 +233,8 @@ def test_results_that_tie_on_node_shape_and_message_come_in_one_order() -> None:
     test_shacl_process.py, where the worker listed a measurement's two sh:class violations the other way round)."""
     import rdflib
 
-    from nfex_core.kg.namespaces import SH
-    from nfex_core.kg.validation import parse_report
+    from nfex_core.kg.rdf.namespaces import SH
+    from nfex_core.kg.shacl.validation import parse_report
 
     def results(order: list[str]) -> rdflib.Graph:
         g = rdflib.Graph()
@@ -277,8 +277,8 @@ def test_the_focus_nodes_a_shape_targets_are_pyshacls(triples, focus) -> None:  
     import rdflib
     from pyshacl.graph_abstraction import DataGraph
 
-    from nfex_core.kg.pyshacl_focus import _Focus, _ShapesGraph
-    from nfex_core.kg.validation import shapes_in
+    from nfex_core.kg.shacl.pyshacl_focus import _Focus, _ShapesGraph
+    from nfex_core.kg.shacl.validation import shapes_in
 
     ex = rdflib.Namespace("https://example.org/")
     preds = {"type": RDF.type, "subClassOf": RDFS.subClassOf, "p": ex.p, "q": ex.q, "r": ex.r}

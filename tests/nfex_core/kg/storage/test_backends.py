@@ -1,4 +1,4 @@
-"""kg/backends.py: what the embedded store answers by its own means gives what the SPARQL path gives."""
+"""kg/storage/backends.py: what the embedded store answers by its own means gives what the SPARQL path gives."""
 from __future__ import annotations
 
 import pytest
@@ -8,8 +8,8 @@ from rdflib import Literal, URIRef
 from rdflib.namespace import XSD
 
 from nfex_core.errors import ParseError
-from nfex_core.kg.backends import Backend, EmbeddedBackend
-from nfex_core.kg.terms import triple_nt
+from nfex_core.kg.rdf.terms import triple_nt
+from nfex_core.kg.storage.backends import Backend, EmbeddedBackend
 
 EX = "https://example.org/"
 iri = st.sampled_from("abc").map(lambda s: URIRef(EX + s))

@@ -1,4 +1,4 @@
-"""Group commit (nfex_core/kg/batch.py) and the feedback writer on it (nfex_core/feedback.py ReportWriter), on a
+"""Group commit (nfex_core/kg/storage/batch.py) and the feedback writer on it (nfex_core/feedback.py ReportWriter), on a
 real store: writes that arrive together share one graph version, each caller gets its own result, a bad
 report fails alone."""
 from __future__ import annotations
@@ -12,7 +12,7 @@ import pytest
 from nfex_core.errors import UnknownName, ValidationFailed
 from nfex_core.feedback import Feedback, ReportWriter, Written
 from nfex_core.kg import KnowledgeGraph
-from nfex_core.kg.batch import Batcher
+from nfex_core.kg.storage.batch import Batcher
 
 
 class Held:

@@ -60,7 +60,7 @@ def test_read_rdf_file_reads_gzip_by_the_inner_suffix(tmp_path: Path) -> None:
     import gzip
 
     from nfex_core.errors import BadInput, ParseError
-    from nfex_core.kg.changes import read_rdf_file
+    from nfex_core.kg.storage.changes import read_rdf_file
 
     text = "<urn:a> <urn:p> \"1\" .\n<urn:b> <urn:p> <urn:a> .\n"
     (tmp_path / "m.nt.gz").write_bytes(gzip.compress(text.encode()))

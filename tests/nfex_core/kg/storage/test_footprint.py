@@ -1,4 +1,4 @@
-"""Stars and signs (kg/footprint.py ``anchors``, ``change_effect``): a change that misses every pattern's star leaves
+"""Stars and signs (kg/storage/footprint.py ``anchors``, ``change_effect``): a change that misses every pattern's star leaves
 a query's answer as it was, and one that only adds to its negative patterns (or removes from its positive ones) only
 takes rows out; and the triples in a query's reach (``Reach``) answer it as the whole graph does.
 
@@ -17,7 +17,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from rdflib import RDF, URIRef
 
-from nfex_core.kg.footprint import Anchor, Delta, Effect, Reach, anchors, change_effect
+from nfex_core.kg.storage.footprint import Anchor, Delta, Effect, Reach, anchors, change_effect
 
 E = "http://example.org/"
 P = f"PREFIX : <{E}> "

@@ -12,7 +12,7 @@ import pytest
 from nfex_core.config import Settings
 from nfex_core.errors import StoreUnavailable
 from nfex_core.kg import KnowledgeGraph, parse_rdf
-from nfex_core.kg.protocol import ServerAuth, dataset_params
+from nfex_core.kg.storage.protocol import ServerAuth, dataset_params
 from nfex_core.kg.store import META
 from nfex_core.knowledge import open_graph
 from tests.conftest import KNOWLEDGE_GRAPH, SparqlServer

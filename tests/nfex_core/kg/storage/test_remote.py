@@ -10,9 +10,9 @@ from rdflib.namespace import RDFS
 
 from nfex_core.errors import Conflict, ParseError, StoreUnavailable, ValidationFailed
 from nfex_core.kg import ChangeSet, KnowledgeGraph, parse_rdf
-from nfex_core.kg.backends import RemoteBackend
-from nfex_core.kg.history import prefix_block
-from nfex_core.kg.namespaces import NFEX
+from nfex_core.kg.rdf.namespaces import NFEX
+from nfex_core.kg.storage.backends import RemoteBackend
+from nfex_core.kg.storage.history import prefix_block
 from tests.conftest import SparqlServer
 
 CONFIG = """@prefix nfex: <https://w3id.org/nfex#> .

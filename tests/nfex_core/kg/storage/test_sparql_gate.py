@@ -1,4 +1,4 @@
-"""The SPARQL gate (kg/sparql_gate.py): forbidden operations found wherever the parse holds them and nowhere
+"""The SPARQL gate (kg/storage/sparql_gate.py): forbidden operations found wherever the parse holds them and nowhere
 else, the depth bound, and agreement with Oxigraph on generated spellings."""
 from __future__ import annotations
 
@@ -15,9 +15,9 @@ from rdflib import Literal, URIRef
 from rdflib.namespace import SH
 
 from nfex_core.errors import BadInput, ParseError
-from nfex_core.kg.changes import ChangeSet
-from nfex_core.kg.namespaces import NFEX
-from nfex_core.kg.sparql_gate import (
+from nfex_core.kg.rdf.namespaces import NFEX
+from nfex_core.kg.storage.changes import ChangeSet
+from nfex_core.kg.storage.sparql_gate import (
     MAX_CHARS,
     MAX_DEPTH,
     ForbiddenOperation,

@@ -15,10 +15,10 @@ from hypothesis import strategies as st
 from rdflib import Literal, URIRef
 
 from nfex_core.errors import BadInput, NfexError, ParseError
-from nfex_core.kg.backends import EmbeddedBackend
-from nfex_core.kg.changes import ChangeSet
-from nfex_core.kg.sparql_gate import ForbiddenOperation
-from nfex_core.kg.sparql_update import change_by_copy, change_of_update
+from nfex_core.kg.storage.backends import EmbeddedBackend
+from nfex_core.kg.storage.changes import ChangeSet
+from nfex_core.kg.storage.sparql_gate import ForbiddenOperation
+from nfex_core.kg.storage.sparql_update import change_by_copy, change_of_update
 
 PREFIXES = "PREFIX ex: <http://example.org/> PREFIX xsd: <http://www.w3.org/2001/XMLSchema#>\n"
 IRIS = ["ex:a", "ex:b", "ex:c", "ex:d"]

@@ -4,7 +4,7 @@ from __future__ import annotations
 import pytest
 from rdflib import URIRef
 
-from nfex_core.kg.update_reach import EVERYTHING, Reach, only_inserts_data, reach
+from nfex_core.kg.storage.update_reach import EVERYTHING, Reach, only_inserts_data, reach
 
 P = "PREFIX ex: <http://example.org/> "
 A, B, PP, Q = (URIRef(f"http://example.org/{x}") for x in ("a", "b", "p", "q"))

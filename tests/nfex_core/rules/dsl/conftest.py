@@ -5,7 +5,7 @@ import pytest
 
 from nfex_core.config import Settings
 from nfex_core.kg.shipped import ontology_vocabulary
-from nfex_core.kg.vocab import Vocabulary
+from nfex_core.kg.vocabulary.vocab import Vocabulary
 
 
 @pytest.fixture(scope="session")

@@ -4,7 +4,7 @@ from __future__ import annotations
 import pytest
 
 from nfex_core.errors import ParameterError, UnknownName
-from nfex_core.kg.vocab import Vocabulary
+from nfex_core.kg.vocabulary.vocab import Vocabulary
 from nfex_core.rules.dsl.check import check, problems
 from nfex_core.rules.dsl.parser import parse
 

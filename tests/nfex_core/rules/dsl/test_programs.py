@@ -9,9 +9,9 @@ from nfex_core.advisor import Advisor
 from nfex_core.config import REPO_ROOT
 from nfex_core.errors import NotFound, ValidationFailed
 from nfex_core.kg import KnowledgeGraph
-from nfex_core.kg.changes import ChangeSet, graph_triples
-from nfex_core.kg.namespaces import NFEX
-from nfex_core.kg.vocab import Vocabulary
+from nfex_core.kg.rdf.namespaces import NFEX
+from nfex_core.kg.storage.changes import ChangeSet, graph_triples
+from nfex_core.kg.vocabulary.vocab import Vocabulary
 from nfex_core.rules.dsl import programs
 from nfex_core.rules.dsl.parser import parse_file
 
