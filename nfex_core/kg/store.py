@@ -106,7 +106,7 @@ class KnowledgeGraph(Derived):
         self.backend.close()
 
     def use_shacl_process(self) -> ShaclProcess:
-        """Run the pySHACL part of each write's validation in a worker process (shacl_process.py): for a long-running
+        """Run the pySHACL part of each write's validation in a worker process (shacl/process.py): for a long-running
         process whose other threads (a service's selections, its background compile) want the interpreter lock too."""
         if self.shacl is None:
             self.shacl = ShaclProcess()

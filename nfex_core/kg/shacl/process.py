@@ -115,7 +115,7 @@ def main() -> None:
     sys.stdout = sys.stderr
     from . import validation  # noqa: F401  (pySHACL and rdflib's SPARQL, imported before the first request)
 
-    _send(replies, ("ready", str(Path(__file__).resolve().parents[1])))  # which nfex_core it imported
+    _send(replies, ("ready", str(Path(__file__).resolve().parents[2])))  # which nfex_core it imported
     while True:
         try:
             request = _receive(requests)
@@ -140,7 +140,7 @@ class ShaclProcess:
         if self._proc is not None and self._proc.poll() is None:
             return self._proc
         self._stop()
-        root = str(Path(__file__).resolve().parents[2])  # where nfex_core is importable from, installed or not
+        root = str(Path(__file__).resolve().parents[3])  # where nfex_core is importable from, installed or not
         env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")])))
         # -P: not the working directory first on the path, so the worker imports the nfex_core this process runs
         proc = subprocess.Popen([sys.executable, "-P", "-c", "from nfex_core.kg.shacl.process import main; main()"], stdin=subprocess.PIPE,

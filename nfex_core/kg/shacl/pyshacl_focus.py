@@ -1,7 +1,7 @@
 """pySHACL adapted to validating a change's neighbourhood: focus nodes only, a shapes graph kept across runs.
 
 ``_OnFocus`` restricts a top-level shape to the focus nodes among its targets (``_ShapesGraph`` wraps them, kept by
-``shacl_shapes.Shapes``); ``PreparedQueryGraph`` parses each SPARQL constraint once; ``parse_report`` turns pySHACL's
+``shapes.Shapes``); ``PreparedQueryGraph`` parses each SPARQL constraint once; ``parse_report`` turns pySHACL's
 results graph into ValidationResults. validation.py ``run_pyshacl`` runs them.
 """
 from __future__ import annotations

@@ -41,7 +41,7 @@ class Shapes:
 
     @functools.cached_property
     def token(self) -> str:
-        """Names these shapes to a SHACL worker process (shacl_process.py), which keeps their shapes graph."""
+        """Names these shapes to a SHACL worker process (process.py), which keeps their shapes graph."""
         return uuid.uuid4().hex
 
     @functools.cached_property

@@ -14,7 +14,7 @@ parameter names per extractor — the incoming edges along the predicates those 
 ``nfex:readsBackwardAlong``. ``tests/nfex_core/kg/shacl/test_validation.py`` checks on random changes that
 this gives the same verdict as validating the whole candidate graph. pySHACL then validates the focus
 nodes only — the neighbourhood's other nodes are there to be read, not judged (pyshacl_focus.py ``_OnFocus``) —
-with a shapes graph it keeps across validations (shacl_shapes.py ``Shapes.pyshacl_graph``;
+with a shapes graph it keeps across validations (shapes.py ``Shapes.pyshacl_graph``;
 bench/bench_shacl_incremental.py times it). The reads of the candidate state are candidate.py's.
 
 A change that edits the shapes themselves is validated against the whole candidate graph.
@@ -104,7 +104,7 @@ def validate_graph(data: rdflib.Graph, shapes: Shapes) -> Report:
 
 
 Runner = Callable[[Collection[Triple], Shapes, set[Node]], tuple[list[ValidationResult], str]]
-"""What runs pySHACL on a change's neighbourhood: ``run_pyshacl`` here, or a worker process's (shacl_process.py)."""
+"""What runs pySHACL on a change's neighbourhood: ``run_pyshacl`` here, or a worker process's (process.py)."""
 
 
 def validate_change(backend: Backend, change: ChangeSet, shapes: Shapes, run: Runner | None = None,

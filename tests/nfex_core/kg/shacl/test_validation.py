@@ -230,7 +230,7 @@ def test_neighbourhoods_kept_across_commits_read_what_the_store_holds(writable, 
 def test_results_that_tie_on_node_shape_and_message_come_in_one_order() -> None:
     """Two results of one shape on one node with one message (a value each) come out in the same order whatever the
     results graph's order: the SHACL worker's report equals this process's (a failing case of
-    test_shacl_process.py, where the worker listed a measurement's two sh:class violations the other way round)."""
+    test_process.py, where the worker listed a measurement's two sh:class violations the other way round)."""
     import rdflib
 
     from nfex_core.kg.rdf.namespaces import SH

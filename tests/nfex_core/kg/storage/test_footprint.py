@@ -116,7 +116,7 @@ def test_the_expert_rule_reads_only_a_measurement_under_car_and_fast_and_then_on
     under car + fast only takes extractors out (so once the rule is silent it stays silent), and one removed may
     bring one back; the subject's star is asked of the graph only for what the change does not settle."""
     n, sosa = "https://w3id.org/nfex#", "http://www.w3.org/ns/sosa/"
-    found = anchors((Path(__file__).resolve().parents[3] / "rules/pruning/expert-fast-car-gradient-histograms.rq").read_text())
+    found = anchors((Path(__file__).resolve().parents[4] / "rules/pruning/expert-fast-car-gradient-histograms.rq").read_text())
     assert found is not None
     star = frozenset({(RDF.type, URIRef(n + "Measurement")), (URIRef(n + "underCondition"), URIRef(n + "agent_car")),
                       (URIRef(n + "underCondition"), URIRef(n + "motion_fast"))})

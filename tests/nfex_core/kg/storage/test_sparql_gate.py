@@ -28,7 +28,7 @@ from nfex_core.kg.storage.sparql_gate import (
     gate_update,
 )
 
-ROOT = Path(__file__).resolve().parents[3]
+ROOT = Path(__file__).resolve().parents[4]
 
 
 @pytest.fixture(scope="module")
