@@ -25,3 +25,14 @@ def test_the_import_contracts_count_type_only_imports_and_keep_the_edges_above_t
     assert {"nfex_core", "service", "cli"} <= set(config["root_packages"])
     layers = [c["layers"] for c in config["contracts"] if c["type"] == "layers" and "containers" not in c]
     assert ["cli", "service", "nfex_core"] in layers
+
+
+def test_the_kg_sub_packages_keep_their_order_and_each_module_of_kg_has_a_place() -> None:
+    config = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["importlinter"]
+    (kg,) = [c for c in config["contracts"] if c["type"] == "layers" and c.get("containers") == ["nfex_core.kg"]]
+    assert kg.get("exhaustive") is True
+    placed = {name.strip() for layer in kg["layers"] for name in layer.split("|")}
+    children = {p.stem for p in (REPO / "nfex_core" / "kg").glob("*.py") if p.stem != "__init__"}
+    children |= {p.parent.name for p in (REPO / "nfex_core" / "kg").glob("*/__init__.py")}
+    assert placed == children
+    assert {"rdf", "storage", "shacl", "vocabulary"} <= placed
