@@ -101,7 +101,8 @@ def symbolic(i: SymbolicIn) -> Symbolic:
     if i.last is not None:
         from ..vision.statistics import FRAME_KEYS
 
-        carried = reusable(i.reuse, i.last, key, cond.stats, FRAME_KEYS, i.session, i.verdict_held, estimate)
+        confidence = {e.dimension: e.confidence for e in cond.entries if e.source != "given"}
+        carried = reusable(i.reuse, i.last, key, cond.stats, FRAME_KEYS, i.session, i.verdict_held, estimate, confidence)
     return Symbolic(decision, budget, key, estimate, carried)
 
 
