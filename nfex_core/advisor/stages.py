@@ -27,6 +27,7 @@ from .budget import Budget, BudgetOutcome, resolve_budget, settle
 from .choice import ranked
 from .conditions import Conditions, read_conditions
 from .params import Candidate, Parameters, theta
+from .ranges import MetricRanges
 from .reuse import Decided, ReuseTerms, reusable
 from .scoring import FrameState, Scored, Scorer, by_network, downscale, prior_scores
 from .selection import UNSCORED, CandidateScore, PrunedCandidate, Scoring, Selection
@@ -203,6 +204,7 @@ class ScoringIn:
     memo: Memo | None = None  # without a frame: the prior scores once per context and snapshot
     carried: Decided | None = None
     session: bool = False
+    ranges: MetricRanges | None = None  # measured metric ranges: evidence that narrows the bounds (ranges.py)
 
 
 def scoring(i: ScoringIn) -> Scored:
@@ -226,7 +228,7 @@ def scoring(i: ScoringIn) -> Scored:
     # verification tries the first proposals in order: those must be scored, not only the winner
     top = i.decision.verification.max_tries if i.decision.verification.active else 1
     scored = i.scorer.on_frame(i.vocab, i.registry(), i.decision, Parameters(dict(i.candidates)), i.neural, i.image,
-                               i.previous, i.exhaustive, i.cost, top)
+                               i.previous, i.exhaustive, i.cost, top, i.ranges)
     return replace(scored, candidates=ranked(i.decision, scored.candidates))
 
 
