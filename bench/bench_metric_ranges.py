@@ -12,7 +12,8 @@ Then, for every shared sequence (KITTI 00 itself, KITTI 07, EuRoC V1_01, the han
 consecutive frames, as a stream and as single frames) and the same contexts, three advisors answer each frame: exhaustive scoring (the
 reference α*), the bounds over [0, 1] alone (the graph without the ranges) and the bounds narrowed by the ranges.
 Printed and written to --out: per sequence and context, how often each gives the reference α*, the mean extractions
-per frame, and how often the ranges held on the frame (the answer says "measured" in its reason).
+per frame, and how often the answer rested on the ranges ("ranges held": they held on every extracted candidate, or
+nothing was extracted that could contradict them; the answer's reason then names them).
 """
 from __future__ import annotations
 
