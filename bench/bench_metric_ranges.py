@@ -33,12 +33,14 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "clients" / "slam"))
 
 from nfex_core.advisor import Advisor  # noqa: E402
+from nfex_core.identity import sequence_iri  # noqa: E402
 from nfex_core.knowledge import open_graph  # noqa: E402
 
 CONTEXTS: dict[str, dict[str, object]] = {"car": {"agent": "car"}, "drone": {"agent": "drone"},
                                           "human": {"agent": "human"}, "car 20 ms": {"agent": "car", "budget_ms": 20}}
 MARGIN = 0.1  # each range is widened by this share of its width on both sides
 TTL = ROOT / "ontology" / "measurements" / "metric-ranges.ttl"
+SEQUENCE = str(sequence_iri("kitti", "00"))  # the calibration sequence, as the sweeps name it
 METRIC_IRIS = {"texturedness": "texturedness", "dissimilarity": "dissimilarity", "motion": "motion_metric",
                "stability": "stability", "density": "spatial_density", "distinctiveness": "distinctiveness",
                "repeatability": "repeatability"}
@@ -91,6 +93,7 @@ def calibrate(paths: list[Path]) -> str:
     def entry(name: str, x: str, k: str, span: tuple[float, float], n: int, y: str | None = None) -> None:
         rel = f" nfex:relativeTo nfex:{y} ;" if y else ""
         lines.append(f"nfex:{name} a nfex:MetricRange ; nfex:rangeExtractor nfex:{x} ; nfex:rangeMetric nfex:{METRIC_IRIS[k]} ;{rel}\n"
+                     f"    nfex:rangeSequence <{SEQUENCE}> ;\n"
                      f"    nfex:rangeLow \"{span[0]:.6f}\"^^xsd:double ; nfex:rangeHigh \"{span[1]:.6f}\"^^xsd:double ;\n"
                      f"    nfex:measuredOn \"{source} ({n} values)\" .")
 
@@ -139,6 +142,7 @@ def check(data: Path, frames: int) -> dict[str, dict[str, dict[str, float]]]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--write", action="store_true", help="recalibrate on KITTI 00 and write " + str(TTL.relative_to(ROOT)))
+    ap.add_argument("--skip-check", action="store_true", help="only --write")
     ap.add_argument("--frames", type=int, default=200, help="consecutive frames per sequence")
     ap.add_argument("--out", type=Path, default=ROOT / "docs/results/metric_ranges.json")
     args = ap.parse_args()
@@ -148,6 +152,8 @@ def main() -> None:
     if args.write:
         TTL.write_text(calibrate(sequences(data, args.frames)["KITTI 00"]))
         print("wrote", TTL.relative_to(ROOT))
+    if args.skip_check:
+        return
     result = check(data, args.frames)
     args.out.write_text(json.dumps({"frames": args.frames, "margin": MARGIN, "rows": result}, indent=1) + "\n")
     print("wrote", args.out)

@@ -172,7 +172,8 @@ class Advisor:
         programs: dict[str, int] = {}
         for s in table.statements:
             programs[s.program] = programs.get(s.program, 0) + 1
-        return Snapshot(table.version, vocab, table, programs, ReuseTerms.load(self.kg), MetricRanges.load(self.kg))
+        return Snapshot(table.version, vocab, table, programs, ReuseTerms.load(self.kg),
+                        MetricRanges.load(self.kg, self.scope.exclude_sequences))
 
     # ------------------------------------------------------------------ the flow
     def select(

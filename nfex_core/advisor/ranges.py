@@ -39,17 +39,22 @@ class MetricRanges:
         return bool(self.single or self.paired)
 
     @classmethod
-    def load(cls, kg: KnowledgeGraph) -> MetricRanges:
+    def load(cls, kg: KnowledgeGraph, held_out: frozenset[str] = frozenset()) -> MetricRanges:
+        """The graph's ranges, less those measured on a sequence in ``held_out`` (IRIs: an evidence scope's
+        excluded sequences, so an evaluation does not narrow its bounds by what it evaluates)."""
         from ..kg.terms import py
 
-        rows = kg.select("""SELECT ?x ?m ?y ?lo ?hi ?src WHERE {
+        rows = kg.select("""SELECT ?x ?m ?y ?lo ?hi ?src (GROUP_CONCAT(STR(?seq)) AS ?seqs) WHERE {
             ?r a nfex:MetricRange ; nfex:rangeExtractor/nfex:token ?x ; nfex:rangeMetric/nfex:token ?m ;
                nfex:rangeLow ?lo ; nfex:rangeHigh ?hi .
-            OPTIONAL { ?r nfex:relativeTo/nfex:token ?y } OPTIONAL { ?r nfex:measuredOn ?src } }""").rows
+            OPTIONAL { ?r nfex:relativeTo/nfex:token ?y } OPTIONAL { ?r nfex:measuredOn ?src }
+            OPTIONAL { ?r nfex:rangeSequence ?seq } } GROUP BY ?r ?x ?m ?y ?lo ?hi ?src""").rows
         single: dict[tuple[str, str], Span] = {}
         paired: dict[tuple[str, str, str], Span] = {}
         sources = set()
         for r in rows:
+            if held_out & set(str(py(r["seqs"])).split() if r.get("seqs") is not None else ()):
+                continue
             span = (float(py(r["lo"])), float(py(r["hi"])))
             if r.get("y") is None:
                 single[(str(py(r["x"])), str(py(r["m"])))] = span

@@ -88,6 +88,18 @@ def test_a_car_extracts_what_can_change_the_answer_over_the_sound_bounds(shipped
     assert "whatever their metrics" in sel.scoring.reason  # type: ignore[attr-defined]
 
 
+def test_an_evaluation_holding_out_kitti_00_does_not_use_its_ranges(shipped_kg: KnowledgeGraph, data_dir: Path) -> None:
+    """The ranges were measured on KITTI 00: an advisor whose evidence scope holds KITTI 00 out bounds over [0, 1]."""
+    from nfex_core.identity import sequence_iri
+    from nfex_core.kg.scope import EvidenceScope
+
+    scope = EvidenceScope(exclude_sequences=frozenset({str(sequence_iri("kitti", "00"))}))
+    advisor = Advisor(shipped_kg, neural="symbolic", scope=scope)
+    assert not advisor.snapshot().ranges and Advisor(shipped_kg, neural="symbolic").snapshot().ranges
+    sel, n, _ = counted(advisor, {"agent": "car", "budget_ms": 20}, kitti(data_dir))
+    assert n >= 1 and "whatever" in (sel.scoring.reason + str(sel.candidates[0].evidence.not_scored))  # type: ignore[attr-defined]
+
+
 def test_ranges_a_frame_contradicts_fall_back_to_the_sound_bounds(shipped_kg: KnowledgeGraph, data_dir: Path) -> None:
     """A range the frame's extracted metrics fall outside of is not evidence for that frame: the request goes on
     over [0, 1] per metric and gives exhaustive scoring's α*."""
