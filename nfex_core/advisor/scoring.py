@@ -13,8 +13,9 @@ with probability 0 and not extracted at all.
 
 Only what can still win is extracted (Scorer): SelectorNet's choice is settled by interval bounds over the
 metrics not yet measured, and under F_metrics every score is bounded from both sides before extraction
-(bounds.py) and only what can narrow the leader's margin is extracted — nothing, where the bounds alone settle
-α*; α* and Θ′ are those of scoring every candidate. The Selection's ``scoring`` says which (scored, settled,
+(bounds.py; each metric's [0, 1] narrowed by the graph's measured metric ranges while they hold on the frame,
+ranges.py) and only what can narrow the leader's margin is extracted — nothing, where the bounds alone settle
+α*; α* and Θ′ are those of scoring every candidate (over the measured ranges: where the frame's metrics lie in them). The Selection's ``scoring`` says which (scored, settled,
 unscored) and how many extractions and pixels it took.
 
 Without a frame (mode ``prior``): score(α) = bonus + A(α), computed once per context and snapshot.
@@ -100,7 +101,8 @@ class Scorer:
     decides, every candidate's score is bounded from both sides before anything is extracted (bounds.py: the
     bonus, H·A and the range of each metric it will have); a candidate is extracted only while the leader's low
     bound is below another's high bound, one at a time, the one whose extraction narrows that gap most per
-    expected ms. When the bounds settle α* nothing is extracted. α*, Θ′ and the order of the scored candidates
+    expected ms; the graph's measured metric ranges narrow those bounds for a single answer while they hold on the
+    frame (ranges.py). When the bounds settle α* nothing is extracted. α*, Θ′ and the order of the scored candidates
     are those of exhaustive scoring; candidates not extracted are listed with the reason (α*, when settled by
     bounds, with its least score). Where a verified pair tries the first ``top`` proposals, every candidate
     that may be among them is scored, so their order is exact. ``exhaustive=True`` scores every candidate."""
