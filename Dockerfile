@@ -14,6 +14,7 @@ WORKDIR /src
 COPY pyproject.toml README.md ./
 COPY nfex_core ./nfex_core
 COPY service ./service
+COPY cli ./cli
 COPY clients/slam/nfex_slam ./clients/slam/nfex_slam
 COPY ontology ./ontology
 COPY rules ./rules
@@ -22,7 +23,7 @@ RUN pip install --no-cache-dir . && rm -rf /src
 RUN useradd --create-home --uid 10001 nfex
 USER nfex
 WORKDIR /home/nfex
-# compute the seed once, here (nfex_core/seed_content.py caches it by content): an empty store then seeds in about
+# compute the seed once, here (nfex_core/knowledge/seed_content.py caches it by content): an empty store then seeds in about
 # a second at the first start instead of recomputing ontology/ and rules/
 RUN NFEX_STORE=/tmp/nfex-seed-warmup nfex kg seed && rm -rf /tmp/nfex-seed-warmup
 ENV NFEX_HOST=0.0.0.0 NFEX_PORT=8000

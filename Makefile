@@ -92,9 +92,9 @@ bench: install-dev
 	for f in bench/bench_*.py; do echo "== $$f"; $(BIN)/python $$f || exit 1; done
 
 lint: install-dev
-	$(BIN)/ruff check nfex_core service clients tests bench
-	$(BIN)/mypy nfex_core service clients/python/nfex_client clients/slam/nfex_slam
-	$(BIN)/lint-imports  # the layers, import cycles and the core's freedom from the service: pyproject.toml [tool.importlinter]
+	$(BIN)/ruff check nfex_core service cli clients tests bench
+	$(BIN)/mypy nfex_core service cli clients/python/nfex_client clients/slam/nfex_slam
+	$(BIN)/lint-imports  # the layers (cli over service over nfex_core), import cycles, the core free of the edges: pyproject.toml [tool.importlinter]
 
 clean:
 	rm -rf $(VENV) build *.egg-info $(CPP_BUILD)

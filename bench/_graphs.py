@@ -7,7 +7,7 @@ from rdflib import Literal
 from rdflib.namespace import RDF, XSD
 
 from nfex_core.kg import ChangeSet
-from nfex_core.namespaces import NFEX, SOSA
+from nfex_core.kg.namespaces import NFEX, SOSA
 
 CONDITIONS = ["light_dark", "light_bright", "agent_car", "agent_drone", "texture_low", "texture_high"]
 

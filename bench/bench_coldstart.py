@@ -72,7 +72,7 @@ def start(store: Path, cache: Path) -> tuple[subprocess.Popen[bytes], str, float
     env = dict(os.environ, NFEX_STORE=str(store), NFEX_LOG_LEVEL="warning", PYTHONPATH=str(ROOT), XDG_CACHE_HOME=str(cache),
                NFEX_TOKENS=f"bench:{TOKEN}:editor")
     t = time.perf_counter()
-    proc = subprocess.Popen([sys.executable, "-m", "nfex_core.cli.main", "serve", "--port", str(port), "--log-level", "warning"],
+    proc = subprocess.Popen([sys.executable, "-m", "cli.main", "serve", "--port", str(port), "--log-level", "warning"],
                             env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     base = f"http://127.0.0.1:{port}"
     marks: dict[str, float] = {}

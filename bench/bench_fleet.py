@@ -163,7 +163,7 @@ def main() -> None:
             port = free_port()
             env = dict(os.environ, NFEX_STORE=str(store), NFEX_LOG_LEVEL="warning", PYTHONPATH=str(ROOT),
                        NFEX_TOKENS=",".join(f"fleet{k}:{tok}:reporter" for k, tok in enumerate(tokens)), **extra)
-            svc = subprocess.Popen([sys.executable, "-m", "nfex_core.cli.main", "serve", "--port", str(port), "--log-level", "warning"],
+            svc = subprocess.Popen([sys.executable, "-m", "cli.main", "serve", "--port", str(port), "--log-level", "warning"],
                                    env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             base = f"http://127.0.0.1:{port}"
             try:

@@ -36,7 +36,7 @@ def start(store: Path, log: Path, role: str) -> tuple[subprocess.Popen[bytes], s
     port = free_port()
     env = {**os.environ, "NFEX_STORE": str(store), "NFEX_TOKENS": f"fuzz:{TOKEN}:{role}", "NFEX_LOG_LEVEL": "warning",
            "NFEX_SPARQL_TIMEOUT_S": "5", "NFEX_MAX_SESSIONS": "64", "PYTHONPATH": str(ROOT)}
-    proc = subprocess.Popen([sys.executable, "-m", "nfex_core.cli.main", "serve", "--port", str(port)], cwd=ROOT, env=env,
+    proc = subprocess.Popen([sys.executable, "-m", "cli.main", "serve", "--port", str(port)], cwd=ROOT, env=env,
                             stdout=log.open("wb"), stderr=subprocess.STDOUT)
     url = f"http://127.0.0.1:{port}"
     for _ in range(1200):

@@ -21,7 +21,6 @@ same. The kinds of change:
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import statistics
 import sys
 import tempfile
@@ -57,7 +56,7 @@ def run(size: int, reports: int, kinds: list[str], settings: Settings, full: boo
     with tempfile.TemporaryDirectory() as folder:
         lines = graph_lines(size, settings)
         seed_store(folder + "/store", lines, settings)
-        kg = KnowledgeGraph.open(folder + "/store", settings=dataclasses.replace(settings, store=folder + "/store"))
+        kg = KnowledgeGraph.open(folder + "/store", settings=settings.replace(store=folder + "/store"))
         writer = ReportWriter(kg, max_items=1)
         out: dict[str, tuple[float, float]] = {}
         try:

@@ -112,7 +112,7 @@ def main() -> None:
     import os
 
     env = {**os.environ, "PYTHONPATH": str(REPO), "NFEX_MODELS": str(args.models)}
-    select = [sys.executable, "-m", "nfex_core.cli.main", "--store", store, "select", "--context", "agent=car"]
+    select = [sys.executable, "-m", "cli.main", "--store", store, "select", "--context", "agent=car"]
     cmds = {
         "both": (select, env),
         "symbolic": (select, {**env, "NFEX_NEURAL": "symbolic"}),

@@ -12,7 +12,6 @@ threaded read won (a sign test: with 7 pairs all won, p = 1/128 under "no differ
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import statistics
 import sys
 import tempfile
@@ -87,7 +86,7 @@ def main() -> int:
         lines = graph_lines(args.size, settings)
         seed_store(store, lines, settings)
         print(f"{len(lines)} statements seeded")
-        with KnowledgeGraph.open(store, settings=dataclasses.replace(settings, store=store)) as kg:
+        with KnowledgeGraph.open(store, settings=settings.replace(store=store)) as kg:
             return measure(kg, args.pairs)
 
 

@@ -13,7 +13,6 @@ that the report arrives; this script measures how long it takes. A failed report
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import os
 import shutil
 import statistics
@@ -64,7 +63,7 @@ def main() -> None:
     services: list = []
     failed: list[str] = []
     try:
-        open_graph(settings=dataclasses.replace(Settings.from_env(), store=ox_url, home=ROOT), seed_empty=True).close()
+        open_graph(settings=Settings.from_env().replace(store=ox_url, home=ROOT), seed_empty=True).close()
         env = dict(os.environ, NFEX_STORE=ox_url, NFEX_HOME=str(ROOT), NFEX_NEURAL="symbolic", NFEX_LOG_LEVEL="warning",
                    PYTHONPATH=str(ROOT), NFEX_TOKENS=f"bench:{TOKEN}:reporter", NFEX_COMPILED_CACHE="none")
         urls = []

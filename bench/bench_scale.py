@@ -66,7 +66,7 @@ from nfex_core.kg import KnowledgeGraph  # noqa: E402
 from nfex_core.kg.backends import RemoteBackend  # noqa: E402
 from nfex_core.kg.history import ChangeText  # noqa: E402
 from nfex_core.knowledge import seed_graph  # noqa: E402
-from nfex_core.seed_content import seed_content  # noqa: E402
+from nfex_core.knowledge.seed_content import seed_content  # noqa: E402
 
 AGGREGATE = """PREFIX nfex: <https://w3id.org/nfex#>
 PREFIX sosa: <http://www.w3.org/ns/sosa/>
@@ -101,7 +101,7 @@ def seed_store(location: str, lines: list[str], settings: Settings) -> float:
     client without the default 30 s limit per request: moving 300k staged statements in is one long update."""
     t = time.perf_counter()
     idle_tail = 0.0
-    settings = dataclasses.replace(settings, store=location)
+    settings = settings.replace(store=location)
     if location.startswith("http"):
         kg = KnowledgeGraph(RemoteBackend(location, timeout_s=3600), settings)
     else:
@@ -158,7 +158,7 @@ def start_nfex(env: dict[str, str], log: Path, timeout: float) -> tuple[subproce
     """`nfex serve` on a free port: the process, its URL, and seconds from starting it to ``/readyz`` 200."""
     port = free_port()
     t = time.perf_counter()
-    svc = subprocess.Popen([sys.executable, "-m", "nfex_core.cli.main", "serve", "--port", str(port), "--log-level", "warning"],
+    svc = subprocess.Popen([sys.executable, "-m", "cli.main", "serve", "--port", str(port), "--log-level", "warning"],
                            env=env, stdout=log.open("ab"), stderr=subprocess.STDOUT)
     base = f"http://127.0.0.1:{port}"
     try:
@@ -318,7 +318,7 @@ def main() -> None:
         if args.plot is not None:
             plot(replotted, args.plot)
         return
-    settings = dataclasses.replace(Settings.from_env(), home=ROOT)
+    settings = Settings.from_env().replace(home=ROOT)
     work = Path(tempfile.mkdtemp(prefix="nfex-bench-scale-"))
     rows: list[Row] = []
     try:

@@ -254,7 +254,7 @@ def main() -> None:
     token = "bench-editor-token"
     env = dict(os.environ, NFEX_STORE=str(store), NFEX_LOG_LEVEL="warning", PYTHONPATH=str(ROOT),
                NFEX_TOKENS=f"bench:{token}:editor")
-    svc = subprocess.Popen([sys.executable, "-m", "nfex_core.cli.main", "serve", "--port", str(port), "--log-level", "warning"],
+    svc = subprocess.Popen([sys.executable, "-m", "cli.main", "serve", "--port", str(port), "--log-level", "warning"],
                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     exe = shutil.which("oxigraph") or str(Path(sys.executable).parent / "oxigraph")
     oxi = subprocess.Popen([exe, "serve", "--location", str(work / "oxigraph"), "--bind", f"127.0.0.1:{oport}"],

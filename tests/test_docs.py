@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 import typer
 
-from nfex_core.cli.main import app
+from cli.main import app
 from service.config import Settings as ServiceSettings
 
 REPO = Path(__file__).resolve().parent.parent
@@ -92,24 +92,48 @@ def test_every_nfex_command_named_exists(doc: Path) -> None:
     assert not wrong, f"{doc.relative_to(REPO)} names nfex commands that do not exist: {sorted(set(wrong))}"
 
 
+SETTINGS_MODULE = REPO / "nfex_core" / "config.py"
+# a read of an NFEX_* variable that bypasses Settings: os.environ / getenv, or a command-line option's envvar
+BYPASS = re.compile(r"(?:getenv|environ\.get|environ\.setdefault|envvar=)\(?\s*[\"']NFEX_|environ\[[\"']NFEX_\w+[\"']\](?!\s*=[^=])")
+
+
+def _sources(*folders: str) -> list[Path]:
+    return [source for folder in folders for source in sorted((REPO / folder).rglob("*.py"))]
+
+
 def _variables_read() -> set[str]:
-    """``NFEX_*`` names in the code that reads settings (core, service, CLI, the test switch), and the service's
-    settings fields (pydantic-settings reads ``NFEX_<FIELD>``)."""
-    names: set[str] = set()
-    for folder in ("nfex_core", "service", "tests"):
-        for source in (REPO / folder).rglob("*.py"):
-            names |= set(re.findall(r"[\"'](NFEX_[A-Z0-9_]+)[\"']", source.read_text()))
-    names |= {f"NFEX_{field.upper()}" for field in ServiceSettings.model_fields}
-    # the suite's own bookkeeping between its processes; the ontology's IRI (a constant, not a variable)
-    return names - {"NFEX_TEST_BARE_HOME", "NFEX_ONTOLOGY"}
+    """``NFEX_*`` variables nFEX reads: the settings' fields (pydantic-settings reads ``NFEX_<FIELD>``; the
+    service's Settings extends the core's), and the names the code and the suite spell out (the suite's switches)."""
+    names = {f"NFEX_{field.upper()}" for field in ServiceSettings.model_fields}
+    for source in _sources("nfex_core", "service", "cli", "tests"):
+        names |= set(re.findall(r"[\"'](NFEX_[A-Z0-9_]+)[\"']", source.read_text()))
+    # the ontology's IRI (a constant, not a variable); NFEX_TEST_*: what the suite hands its own child processes
+    # (the C++ client's service tests, clients/cpp/README.md), not a setting
+    return {n for n in names if n != "NFEX_ONTOLOGY" and not n.startswith("NFEX_TEST_")}
 
 
-def test_the_readme_configuration_table_lists_every_variable_the_code_reads() -> None:
+def _readme_table() -> set[str]:
     readme = (REPO / "README.md").read_text()
     table = readme[readme.index("## Configuration"):]
     table = table[: table.index("\n## ", 1)]
-    listed = set(re.findall(r"NFEX_[A-Z0-9_]+", table))
-    assert not _variables_read() - listed, f"README's configuration table lacks: {sorted(_variables_read() - listed)}"
+    return set(re.findall(r"NFEX_[A-Z0-9_]+", table))
+
+
+def test_the_readme_configuration_table_lists_every_variable_the_code_reads() -> None:
+    read, listed = _variables_read(), _readme_table()
+    assert not read - listed, f"README's configuration table lacks: {sorted(read - listed)}"
+    assert not listed - read, f"README's configuration table lists variables nothing reads: {sorted(listed - read)}"
+
+
+def test_only_the_settings_read_nfex_variables() -> None:
+    """One source of truth: outside nfex_core/config.py no module reads an ``NFEX_*`` variable itself."""
+    readers = [f"{source.relative_to(REPO)}:{text.count(chr(10), 0, m.start()) + 1}"
+               for source in _sources("nfex_core", "service", "cli") if source != SETTINGS_MODULE
+               for text in [source.read_text()] for m in BYPASS.finditer(text)]
+    assert not readers, f"these read NFEX_* variables around Settings: {readers}"
+    caught = ['os.environ.get("NFEX_STORE")', "os.getenv('NFEX_DATA')", 'typer.Option(envvar="NFEX_HOST")',
+              'os.environ["NFEX_NEURAL"] or 1']
+    assert all(BYPASS.search(c) for c in caught) and not BYPASS.search('os.environ["NFEX_STORE"] = store')
 
 
 def test_the_checks_can_fail(tmp_path: Path) -> None:

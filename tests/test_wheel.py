@@ -40,6 +40,8 @@ def test_an_installed_wheel_answers_from_the_full_graph(tmp_path: Path) -> None:
           "-q", str(wheel)], cwd=work, env=env)
     site = Path(_run([str(python), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"]).stdout.strip())
     assert (site / "nfex_core" / "_home" / "ontology" / "nfex.ttl").is_file()
+    # the two edges beside the core: the command line (the console script's module) and the service
+    assert (site / "cli" / "main.py").is_file() and (site / "service" / "main.py").is_file()
     # nfex itself only from the wheel; its third-party dependencies from this environment, to keep the test fast
     # (a plain path line: the .pth files there, e.g. an editable nfex, are not processed)
     (site / "zz-deps.pth").write_text(sysconfig.get_path("purelib") + "\n")

@@ -2,7 +2,7 @@
 
 The budget (ms of feature extraction per frame) is part of a request's context but not a condition
 dimension of the finite table (DESIGN.md, "The one flow"): the table gives C(E) and Θ′ per
-candidate, then for each candidate the cost model (nfex_core/cost.py) gives its expected time at the
+candidate, then for each candidate the cost model (nfex_core/evidence/cost.py) gives its expected time at the
 frame's size, times the client's compute-class factor. Over the budget:
 
 1. fit: when the extractor's cost model has a features or levels term, lower NF (down to a quarter
@@ -27,10 +27,10 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..cost import BudgetTerms, CostModel, Estimate
 from ..errors import UnknownName
+from ..evidence.cost import BudgetTerms, CostModel, Estimate
+from ..kg.namespaces import NFEX
 from ..kg.vocab import ExtractorSpec, Value
-from ..namespaces import NFEX
 from ..rules.types import Adjustment, Citation
 
 BUDGET_RULE = str(NFEX.rule_budget)

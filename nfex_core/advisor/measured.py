@@ -17,10 +17,10 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from ..cost import CostModel
 from ..evidence import Aggregate
+from ..evidence.cost import CostModel
+from ..kg.namespaces import NFEX
 from ..kg.vocab import ExtractorSpec, Value
-from ..namespaces import NFEX
 from ..rules.types import Adjustment, Citation, MeasuredConfiguration
 from .budget import Budget, expected
 

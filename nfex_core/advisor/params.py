@@ -18,10 +18,10 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
-from ..cost import CostModel, Estimate
-from ..fitness import adjust_params
+from ..evidence.cost import CostModel, Estimate
 from ..kg.vocab import ExtractorSpec, Value, Vocabulary
 from ..neural.serve import NeuralStep
+from ..rules.fitness import adjust_params
 from ..rules.shape_check import enforce
 from ..rules.table import RuleTable
 from ..rules.types import Adjustment, Citation, Decision, MeasuredConfiguration

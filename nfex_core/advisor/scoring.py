@@ -31,10 +31,10 @@ from typing import Any
 
 import numpy as np
 
-from ..cost import CostModel
-from ..fitness import f_metrics
+from ..evidence.cost import CostModel
 from ..kg.vocab import ExtractorSpec, Value, Vocabulary
 from ..neural.serve import BoundedChoice, NeuralStep
+from ..rules.fitness import f_metrics
 from ..rules.types import Decision
 from ..vision.work import Work
 from .bounds import contenders, next_extraction, ranged_bounds, score_bounds, settled_reason

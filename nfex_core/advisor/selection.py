@@ -10,8 +10,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..context import ContextEntry
-from ..cost import Estimate
 from ..evidence import ROBUST
+from ..evidence.cost import Estimate
 from ..kg.vocab import Value
 from ..rules.types import NO_POLICY, Adjustment, Citation, Evidence, Factor, MeasuredConfiguration, Policy
 

@@ -18,8 +18,8 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
-from ..cost import BudgetTerms, CostModel
 from ..errors import NoCandidate
+from ..evidence.cost import BudgetTerms, CostModel
 from ..kg.vocab import ExtractorSpec, Vocabulary
 from ..neural.serve import NeuralStep, frame_stats
 from ..rules.types import Citation, Decision, Policy

@@ -34,7 +34,7 @@ from nfex_slam.datasets.schedule import SCHEDULE, Schedule, under
 from nfex_slam.motion import NO_CHECKS, StepChecks
 from nfex_slam.vo import VOParams, VOResult, run_vo
 
-from ..identity import sequence_iri
+from ..kg.identity import sequence_iri
 from ..kg.scope import EvidenceScope, scoped_graph
 from .figures import ATE, Figure, rank
 from .methods import NFEX, ORACLES, TUNED, AdvisorChooser, DynChooser, chooser_for, static_methods

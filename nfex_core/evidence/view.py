@@ -50,8 +50,8 @@ from ..kg.changes import ChangeSet
 from ..kg.claims import META
 from ..kg.footprint import Delta, Reach
 from ..kg.history import HEAD, ChangeText
+from ..kg.namespaces import NFEX
 from ..kg.terms import oxigraph_triples, py
-from ..namespaces import NFEX
 from .aggregate import robust
 from .index import Diff
 from .observations import Observation

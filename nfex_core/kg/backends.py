@@ -169,7 +169,7 @@ class EmbeddedBackend(Backend):
 
     def load(self, data: bytes, media: str = "application/n-triples") -> None:
         """Load serialised triples into the default graph in one transaction (scratch copies for
-        what-if previews, nfex_core/impact.py)."""
+        what-if previews, nfex_core/advisor/impact.py)."""
         self._store.load(data, format=GRAPH_FORMATS[media])
 
     def bulk_load(self, data: bytes) -> None:

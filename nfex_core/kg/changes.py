@@ -16,8 +16,8 @@ from rdflib.namespace import PROV, RDF
 from rdflib.term import Node, URIRef
 
 from ..errors import BadInput, ParseError
-from ..namespaces import NFEX
 from .backends import Backend
+from .namespaces import NFEX
 from .terms import Triple, n3, normalise, oxigraph_triples, skolemise
 
 RDF_FORMATS = {

@@ -25,8 +25,8 @@ from datetime import datetime
 from rdflib.namespace import XSD
 from rdflib.term import Literal, URIRef
 
-from ..namespaces import NFEX
 from .backends import Backend
+from .namespaces import NFEX
 from .terms import n3, py
 
 META = URIRef("urn:nfex:meta")

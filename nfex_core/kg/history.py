@@ -21,10 +21,10 @@ from typing import Any
 from rdflib.namespace import DCTERMS, PROV, RDF, XSD
 from rdflib.term import Literal, URIRef
 
-from ..namespaces import NFEX, PREFIXES
 from .backends import Backend, EmbeddedBackend
 from .changes import ChangeSet
 from .claims import META, settle_update
+from .namespaces import NFEX, PREFIXES
 from .terms import Triple, n3, nt, py, triple_n3
 
 
@@ -80,7 +80,7 @@ class Version:
 class ChangeText:
     """A change set as the statements a version writes, one triple each (``triple_n3``, or N-Triples
     lines): what ``write_version`` sends. Content validated and serialised elsewhere (the shipped seed,
-    ``nfex_core.seed_content``) is written from its text without becoming rdflib terms first."""
+    ``nfex_core.knowledge.seed_content``) is written from its text without becoming rdflib terms first."""
 
     added: Sequence[str]
     removed: Sequence[str] = ()

@@ -14,7 +14,7 @@ import rdflib
 from rdflib.namespace import OWL, RDF, SH
 from rdflib.term import Node, URIRef
 
-from ..namespaces import PREFIXES
+from .namespaces import PREFIXES
 from .terms import is_skolem
 
 CORE = URIRef("https://w3id.org/nfex")

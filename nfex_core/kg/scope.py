@@ -23,9 +23,9 @@ import pyoxigraph as ox
 
 from ..config import Settings
 from ..errors import BadInput
-from ..namespaces import NFEX
 from .backends import EmbeddedBackend
 from .changes import ChangeSet
+from .namespaces import NFEX
 from .store import HEAD, META, CommitResult, KnowledgeGraph
 from .terms import n3
 

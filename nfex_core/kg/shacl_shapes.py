@@ -16,12 +16,12 @@ import rdflib
 from rdflib.namespace import RDF, RDFS, SH
 from rdflib.term import BNode, Node, URIRef
 
-from ..namespaces import NFEX
 from .backends import Backend
 from .candidate import chunks
 from .changes import ChangeSet
 from .footprint import footprint
 from .history import prefix_block
+from .namespaces import NFEX
 from .pyshacl_focus import _ShapesGraph
 from .terms import Triple, is_skolem, n3
 

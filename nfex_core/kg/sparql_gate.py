@@ -35,7 +35,7 @@ from rdflib.namespace import SH
 from rdflib.term import Literal
 
 from ..errors import BadInput, ParseError
-from ..namespaces import NFEX
+from .namespaces import NFEX
 
 MAX_CHARS = 200_000
 MAX_DEPTH = 400

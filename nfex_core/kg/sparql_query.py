@@ -9,7 +9,7 @@ import re
 from collections.abc import Callable
 
 from ..errors import BadInput, ParseError
-from ..namespaces import PREFIXES
+from .namespaces import PREFIXES
 
 _DECLARED = re.compile(r"PREFIX\s+([A-Za-z0-9_.-]*):", re.IGNORECASE)
 

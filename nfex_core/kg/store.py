@@ -26,7 +26,6 @@ from rdflib.term import Literal
 
 from ..config import Settings
 from ..errors import BadInput, Conflict, NotFound, PreconditionFailed, StoreUnavailable, ValidationFailed
-from ..namespaces import NFEX, PREFIXES
 from .backends import Backend, EmbeddedBackend, SelectResult, open_backend
 from .changes import ChangeSet, graph_triples
 from .claims import META as CLAIMS_META
@@ -48,6 +47,7 @@ from .history import (
     version_iri,
     write_version,
 )
+from .namespaces import NFEX, PREFIXES
 from .shacl_process import ShaclProcess
 from .sparql_gate import gate_change, gate_update
 from .sparql_update import change_of_update

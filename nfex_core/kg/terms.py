@@ -18,7 +18,7 @@ from rdflib.compare import to_canonical_graph
 from rdflib.namespace import XSD
 from rdflib.term import BNode, Literal, Node, URIRef
 
-from ..namespaces import GENID
+from .namespaces import GENID
 
 Triple = tuple[Node, Node, Node]
 XSD_STRING = ox.NamedNode(str(XSD.string))

@@ -38,11 +38,11 @@ from rdflib.namespace import RDF, SH
 from rdflib.term import Node, URIRef
 
 from ..errors import BadInput, ValidationResult
-from ..namespaces import NFEX
 from .backends import Backend
 from .candidate import CandidateView, Neighbourhood
 from .changes import ChangeSet
 from .footprint import pairs, reads
+from .namespaces import NFEX
 from .pyshacl_focus import _as_prepared, parse_report
 from .shacl_shapes import Shapes, extract_shapes, shapes_closure, shapes_in, touches_shapes
 from .terms import Triple, n3

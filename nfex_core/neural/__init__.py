@@ -1,4 +1,5 @@
-"""The neural part (§IV-B): ParamNet for Θ′, SelectorNet for α*, trained with torch, served in NumPy."""
+"""The neural part (§IV-B): ParamNet for Θ′, SelectorNet for α*, served in NumPy (``serve``, ``artifacts``,
+``encoding``, the nets' inference); trained with torch in ``training/``, which serving never imports."""
 from __future__ import annotations
 
 from .artifacts import NeuralModel

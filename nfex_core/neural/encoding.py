@@ -23,8 +23,8 @@ from typing import Any
 
 import numpy as np
 
-from ..fitness import REFERENCE_PIXELS
 from ..kg.vocab import Vocabulary
+from ..rules.fitness import REFERENCE_PIXELS
 
 UNKNOWN = "unknown"
 

@@ -16,8 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..fitness import REFERENCE_PIXELS
 from ..kg.vocab import ExtractorSpec, Value
+from ..rules.fitness import REFERENCE_PIXELS
 from .encoding import InputVocabulary
 
 LAYERS = ("fc1", "fc2", "fc3")

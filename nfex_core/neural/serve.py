@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from ..identity import model_iri
+from ..kg.identity import model_iri
 from ..kg.vocab import ExtractorSpec, Value, Vocabulary
 from ..rules.types import Adjustment, Citation
 from .artifacts import NeuralModel, find_model
@@ -245,7 +245,7 @@ class ModelHolder:
 
 def _trained_on(model: NeuralModel) -> set[str]:
     """The sequence IRIs of the model's training table (its manifest's ``dataset/sequence`` keys)."""
-    from ..identity import sequence_iri
+    from ..kg.identity import sequence_iri
 
     keys = model.manifest.get("data", {}).get("sequences", [])
     return {str(sequence_iri(*k.split("/", 1))) if "/" in k else str(sequence_iri(None, k)) for k in keys}

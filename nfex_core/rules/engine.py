@@ -14,7 +14,7 @@ on a context's first request and kept. ``compile_table`` runs again when the gra
 carries from the last table whatever the change cannot have touched (docs/architecture.md): the
 configuration stage (setup.py), the observations (evidence/index.py) and their grouping (evidence/groups.py),
 the rules' view (evidence/view.py), each rule's hits outside its footprint (kg/footprint.py), and each
-context's decision whose rule prunes are the same. The same step fits the cost model (nfex_core/cost.py) and reads the budget terms, so a request's
+context's decision whose rule prunes are the same. The same step fits the cost model (nfex_core/evidence/cost.py) and reads the budget terms, so a request's
 budget check (advisor/budget.py) costs arithmetic only.
 
 Composition (paper §IV-A): several ``adjust`` statements on one parameter multiply
@@ -34,8 +34,8 @@ from typing import TYPE_CHECKING, TypeVar, cast
 
 from rdflib.term import URIRef
 
-from ..cost import fit_groups
 from ..evidence import Observation, robust
+from ..evidence.cost import fit_groups
 from ..evidence.groups import Grouped
 from ..evidence.index import Diff, ObservationIndex
 from ..evidence.view import EvidenceView, dump, evidence_view, summary_lines

@@ -40,8 +40,8 @@ import rdflib
 from ..caches import prune, write_atomically
 from ..kg.claims import META
 from ..kg.history import version_iri
+from ..kg.namespaces import NFEX
 from ..kg.terms import n3
-from ..namespaces import NFEX
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph

@@ -27,12 +27,12 @@ from rdflib.term import Literal, URIRef
 
 from ..config import Settings
 from ..errors import BadInput, ParseError
-from ..identity import rule_iri
 from ..kg.backends import EmbeddedBackend
 from ..kg.changes import read_rdf_file
+from ..kg.identity import rule_iri
+from ..kg.namespaces import NFEX
 from ..kg.sparql_gate import gate_query
 from ..kg.terms import n3
-from ..namespaces import NFEX
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph

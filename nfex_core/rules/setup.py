@@ -24,13 +24,13 @@ from typing import TYPE_CHECKING
 
 from nfex_slam.motion import StepChecks
 
-from ..cost import BudgetTerms
 from ..evidence import TrustPolicy
+from ..evidence.cost import BudgetTerms
 from ..kg.footprint import Footprint, footprint
 from ..kg.terms import py
 from ..kg.vocab import Vocabulary
-from ..motion import load_step_checks
 from . import pruning
+from .motion import load_step_checks
 from .shapes import GraphShapes, load_context_shapes
 from .statements import CompiledStatement, load_statements
 from .types import (

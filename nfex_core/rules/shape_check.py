@@ -23,8 +23,8 @@ import rdflib
 from rdflib.namespace import RDF
 from rdflib.term import URIRef
 
+from ..kg.namespaces import NFEX
 from ..kg.vocab import ExtractorSpec, ParameterSpec, Value, Vocabulary
-from ..namespaces import NFEX
 from .types import Adjustment, Bound, Citation, CompiledShape
 
 

@@ -18,10 +18,10 @@ from rdflib.collection import Collection
 from rdflib.namespace import RDF, RDFS, SH
 from rdflib.term import BNode, Literal, Node, URIRef
 
-from ..identity import program_iri
+from ..kg.identity import program_iri
+from ..kg.namespaces import NFEX
 from ..kg.terms import is_skolem, n3
 from ..kg.vocab import Value, Vocabulary
-from ..namespaces import NFEX
 from .shapes import COMPARATORS, DSL_COMPARATORS, CompiledShape, ShapeFormError, compile_shape
 from .types import ConditionAtom
 

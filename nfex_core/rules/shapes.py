@@ -24,9 +24,9 @@ from rdflib.collection import Collection
 from rdflib.namespace import RDF, RDFS, SH
 from rdflib.term import BNode, Literal, Node, URIRef
 
+from ..kg.namespaces import NFEX
 from ..kg.terms import is_skolem
 from ..kg.vocab import ConditionValueSpec, DimensionSpec, ExtractorSpec, ParameterSpec, Vocabulary
-from ..namespaces import NFEX
 from .shape_check import verify_prohibitions
 from .statements import CompiledStatement
 from .types import Bound, CompiledShape, ConditionAtom

@@ -18,9 +18,9 @@ from typing import Any, TypeVar
 
 from nfex_slam.motion import StepChecks
 
-from ..cost import BudgetTerms, CostModel
 from ..errors import NfexError
 from ..evidence import Admission, Aggregate, Observation, robust
+from ..evidence.cost import BudgetTerms, CostModel
 from ..evidence.groups import Grouped
 from ..evidence.index import ObservationIndex
 from ..evidence.view import EvidenceView

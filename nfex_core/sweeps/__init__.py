@@ -2,7 +2,7 @@
 written to the graph (Measurements with provenance) and to the training table (paper §III-A-2)."""
 from __future__ import annotations
 
-from ..identity import canonical
+from ..kg.identity import canonical
 from .cells import Cell, run_cell
 from .grid import PRESETS, grid
 from .records import RunInfo, measurement_graph

@@ -11,7 +11,7 @@ import itertools
 import random
 from collections.abc import Mapping
 
-from ..identity import canonical
+from ..kg.identity import canonical
 from ..kg.vocab import ExtractorSpec, Value
 
 # 24 configurations each (2·3·2·2 for ORB, 3·2·2·2 for SIFT), spanning the parameters the paper tunes:

@@ -25,7 +25,7 @@ from rdflib.namespace import PROV, RDF, RDFS, SOSA, XSD
 from rdflib.term import Literal, URIRef
 
 from ..config import REPO_ROOT
-from ..identity import (
+from ..kg.identity import (
     configuration_iri,
     corruption_iri,
     dataset_iri,
@@ -36,8 +36,8 @@ from ..identity import (
     sequence_iri,
     setting_iri,
 )
+from ..kg.namespaces import NFEX
 from ..kg.vocab import ExtractorSpec, Vocabulary
-from ..namespaces import NFEX
 from .cells import DIMENSIONS
 
 

@@ -15,9 +15,9 @@ from typing import TYPE_CHECKING, Any
 from nfex_slam.datasets.schedule import Schedule
 
 from ..errors import BadInput
-from ..identity import canonical, measurement_iri
-from ..motion import load_step_checks
-from ..namespaces import PREFIXES
+from ..kg.identity import canonical, measurement_iri
+from ..kg.namespaces import PREFIXES
+from ..rules.motion import load_step_checks
 from .cells import Cell, init_worker, run_cell
 from .grid import grid
 from .records import RunInfo, measurement_graph

@@ -8,9 +8,9 @@ from fastapi import APIRouter, Response
 from rdflib.namespace import RDF, RDFS
 from rdflib.term import Literal
 
-from nfex_core.identity import condition_value_iri
 from nfex_core.kg import ChangeSet
-from nfex_core.namespaces import NFEX
+from nfex_core.kg.identity import condition_value_iri
+from nfex_core.kg.namespaces import NFEX
 
 from ..deps import EditorDep, IfMatchDep, KGDep
 from ..editing import check_name, describe

@@ -15,8 +15,8 @@ from rdflib.term import Literal
 
 from nfex_core.errors import BadInput
 from nfex_core.kg import ChangeSet, graph_triples
+from nfex_core.kg.namespaces import NFEX
 from nfex_core.kg.terms import is_skolem
-from nfex_core.namespaces import NFEX
 
 from ..deps import EditorDep, IfMatchDep, KGDep
 from ..editing import check_name, describe, rdf_body, replace, subjects_of, turtle

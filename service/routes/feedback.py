@@ -12,7 +12,7 @@ from fastapi.responses import JSONResponse
 from nfex_core.errors import NotFound
 from nfex_core.evidence import TrustPolicy, admit, read_observations
 from nfex_core.feedback import Feedback, acceptance_graph
-from nfex_core.namespaces import NFEX
+from nfex_core.kg.namespaces import NFEX
 
 from ..deps import EditorDep, IfMatchDep, KGDep, ReporterDep, ReportsDep, SessionsDep
 from ..schemas import PROBLEM_RESPONSES, FeedbackRequest, ReportList, WriteResult

@@ -80,7 +80,7 @@ async def preview_program(name: str, request: Request, kg: KGDep) -> dict[str, A
         raise QueryLimitExceeded("another preview is being computed; retry in a few seconds", limit="concurrency")
 
     def work() -> dict[str, Any]:
-        from nfex_core.impact import impact
+        from nfex_core.advisor.impact import impact
 
         try:
             _, graph = dsl.compile_text(text, kg.vocabulary(), name=name, source=f"api:{name}")

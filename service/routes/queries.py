@@ -15,7 +15,7 @@ router = APIRouter(prefix="/v1/queries", tags=["workbench"])
 
 @router.get("", summary="The saved SPARQL queries, with their titles")
 def saved_queries(settings: SettingsDep) -> dict[str, Any]:
-    folder = settings.core().home / "docs" / "queries"
+    folder = settings.home / "docs" / "queries"
     out = []
     for path in sorted(folder.glob("*.rq")) if folder.is_dir() else []:
         text = path.read_text(encoding="utf-8")

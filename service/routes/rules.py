@@ -12,11 +12,10 @@ from fastapi.concurrency import run_in_threadpool
 from rdflib.namespace import RDF, RDFS
 from rdflib.term import Literal, URIRef
 
-from nfex_core import identity
 from nfex_core.errors import NotFound
-from nfex_core.kg import ChangeSet
+from nfex_core.kg import ChangeSet, identity
+from nfex_core.kg.namespaces import NFEX
 from nfex_core.kg.sparql_query import with_prefixes
-from nfex_core.namespaces import NFEX
 from nfex_core.rules.pruning import check_rule
 
 from ..deps import EditorDep, IfMatchDep, KGDep

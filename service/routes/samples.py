@@ -26,7 +26,7 @@ def _found(data: Path) -> tuple[Sample, ...]:
 
 @router.get("", summary="Frames of the shared datasets, with the context their sequence is known for")
 def list_samples(settings: SettingsDep) -> dict[str, Any]:
-    data = settings.core().data
+    data = settings.data
     return {"data": str(data), "samples": [s.as_dict() for s in _found(data)]}
 
 
@@ -36,7 +36,7 @@ IMAGE = {"schema": {"type": "string", "format": "binary"}}
 @router.get("/{sample_id}", summary="One frame's image (PNG or JPEG)", response_class=FileResponse,
             responses={200: {"content": {"image/png": IMAGE, "image/jpeg": IMAGE}, "description": "The frame's file."}})
 def get_sample(sample_id: str, settings: SettingsDep) -> FileResponse:
-    for s in _found(settings.core().data):
+    for s in _found(settings.data):
         if s.id == sample_id:
             return FileResponse(s.path, media_type=MEDIA[s.path.suffix.lower()])
     raise NotFound(f"no sample {sample_id!r}; GET /v1/samples lists them")

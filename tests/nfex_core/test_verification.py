@@ -130,7 +130,7 @@ def test_the_shacl_shape_admits_exactly_the_signals_the_verifier_computes() -> N
     from rdflib.namespace import SH
 
     from nfex_core.config import Settings
-    from nfex_core.namespaces import NFEX
+    from nfex_core.kg.namespaces import NFEX
     from nfex_core.rules.types import PAIR_SIGNALS
 
     g = rdflib.Graph().parse(Settings.from_env().rules_dir / "shapes" / "dsl.ttl")

@@ -10,7 +10,7 @@ import rdflib
 from rdflib.namespace import DCTERMS, OWL, RDF, RDFS
 
 import nfex_core
-from nfex_core.namespaces import NFEX
+from nfex_core.kg.namespaces import NFEX
 
 ONTOLOGY = Path(__file__).resolve().parents[2] / "ontology"
 MODULES = sorted(p.stem for p in ONTOLOGY.glob("*.ttl"))

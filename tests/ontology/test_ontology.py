@@ -9,7 +9,7 @@ import pytest
 import rdflib
 from rdflib.namespace import OWL, RDF, RDFS
 
-from nfex_core.namespaces import NFEX
+from nfex_core.kg.namespaces import NFEX
 
 ONTOLOGY = Path(__file__).resolve().parents[2] / "ontology"
 

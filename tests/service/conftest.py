@@ -62,7 +62,7 @@ def start_service(store: str, log: Path, extra_env: dict[str, str] | None = None
     port = free_port()
     env = {**os.environ, "NFEX_STORE": store, **TEST_ENV, **(extra_env or {})}
     proc = subprocess.Popen(
-        [sys.executable, "-m", "nfex_core.cli.main", "serve", "--port", str(port), "--log-level", "info"],
+        [sys.executable, "-m", "cli.main", "serve", "--port", str(port), "--log-level", "info"],
         env=env, stdout=log.open("wb"), stderr=subprocess.STDOUT,
     )
     url = f"http://127.0.0.1:{port}"

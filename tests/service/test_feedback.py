@@ -81,7 +81,7 @@ def test_feedback_and_sweeps_name_one_configuration_alike(kg) -> None:  # type: 
     from rdflib.namespace import SOSA
 
     from nfex_core.feedback import Feedback, measurement_graph
-    from nfex_core.namespaces import NFEX
+    from nfex_core.kg.namespaces import NFEX
     from nfex_core.sweeps.records import RunInfo
     from nfex_core.sweeps.records import measurement_graph as sweep_graph
 
@@ -103,7 +103,7 @@ def test_feedback_and_a_sweep_on_one_sequence_share_its_node(kg) -> None:  # typ
     from rdflib.namespace import RDFS
 
     from nfex_core.feedback import Feedback, measurement_graph
-    from nfex_core.namespaces import NFEX
+    from nfex_core.kg.namespaces import NFEX
     from nfex_core.sweeps.records import RunInfo
     from nfex_core.sweeps.records import measurement_graph as sweep_graph
 

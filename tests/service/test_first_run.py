@@ -25,7 +25,7 @@ def test_serve_starts_on_an_empty_home(tmp_path: Path, record_property: pytest.R
     log = tmp_path / "serve.log"
     t0 = time.monotonic()
     proc = subprocess.Popen(
-        [sys.executable, "-m", "nfex_core.cli.main", "serve", "--port", str(port)],
+        [sys.executable, "-m", "cli.main", "serve", "--port", str(port)],
         env=env, stdout=log.open("wb"), stderr=subprocess.STDOUT,
     )
     url = f"http://127.0.0.1:{port}/readyz"

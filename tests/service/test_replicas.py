@@ -9,7 +9,6 @@ it cites — not for a time; how long that takes is a figure for the bench (``be
 the compile per report) and is printed here (run with ``-s``)."""
 from __future__ import annotations
 
-import dataclasses
 import os
 import subprocess
 import sys
@@ -38,7 +37,7 @@ def shipped_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[SparqlS
     """A real `oxigraph serve`, seeded with the shipped graph (ontology/ with its measurements, rules/)."""
     proc, server = start_sparql_server("oxigraph", tmp_path_factory.mktemp("replicas-oxigraph"))
     try:
-        graph = open_graph(settings=dataclasses.replace(server.settings(), home=REPO), seed_empty=True)
+        graph = open_graph(settings=server.settings().replace(home=REPO), seed_empty=True)
         graph.close()
         yield server
     finally:
@@ -56,7 +55,7 @@ def replicas(shipped_server: SparqlServer, tmp_path_factory: pytest.TempPathFact
         for i in range(REPLICAS):
             port = free_port()
             procs.append(subprocess.Popen(
-                [sys.executable, "-m", "nfex_core.cli.main", "serve", "--port", str(port), "--log-level", "info"],
+                [sys.executable, "-m", "cli.main", "serve", "--port", str(port), "--log-level", "info"],
                 env=env, stdout=(folder / f"replica-{i}.log").open("wb"), stderr=subprocess.STDOUT))
             urls.append(f"http://127.0.0.1:{port}")
         deadline = time.monotonic() + 120

@@ -33,7 +33,7 @@ from SPARQLWrapper import (
     SPARQLWrapper,
 )
 
-from nfex_core.namespaces import PREFIXES
+from nfex_core.kg.namespaces import PREFIXES
 
 from .conftest import EDITOR, Service, assert_problem
 

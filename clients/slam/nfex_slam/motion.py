@@ -9,7 +9,7 @@ t (a point X in camera k−1 is R·X + t in camera k; the camera moved along d_k
   carried into camera k−1), must not exceed φ_max · Δt — checked only when both steps translated.
 
 ω_max and φ_max are per-agent data in the graph (``nfex:maxRotationRate``, ``nfex:maxHeadingChangeRate``,
-degrees per second, ontology/frontend.ttl; read by ``nfex_core.motion.load_step_checks``); Δt is the pair's time step. A pair that fails is treated as
+degrees per second, ontology/frontend.ttl; read by ``nfex_core.rules.motion.load_step_checks``); Δt is the pair's time step. A pair that fails is treated as
 lost: the pose follows the last accepted motion (constant velocity). The same checks score a pair
 against the ground truth (``pair_errors``) and let a verifier compare candidates (``angle_between``).
 """

@@ -1,7 +1,7 @@
 """The nFEX rule language: grammar ``rules/nfex.lark``, parser, name checks, compiler to triples (docs/dsl.md)."""
 from __future__ import annotations
 
-from ...identity import program_iri
+from ...kg.identity import program_iri
 from .check import check, problems
 from .compiler import compile_program, decompile
 from .parser import Atom, Pos, Program, Statement, parse, parse_file, render

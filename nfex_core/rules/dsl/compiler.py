@@ -20,7 +20,8 @@ from rdflib.namespace import RDF, RDFS, XSD
 from rdflib.term import Literal, URIRef
 
 from ...errors import NotFound
-from ...identity import program_iri, statement_iri
+from ...kg.identity import program_iri, statement_iri
+from ...kg.namespaces import NFEX
 from ...kg.vocab import (
     ConditionValueSpec,
     DimensionSpec,
@@ -29,7 +30,6 @@ from ...kg.vocab import (
     ParameterSpec,
     Vocabulary,
 )
-from ...namespaces import NFEX
 from ..shape_text import require_shape
 from ..types import ConditionAtom
 from .parser import Atom, Pos, Program, Statement, Test

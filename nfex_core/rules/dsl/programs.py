@@ -14,12 +14,12 @@ import rdflib
 
 from ...config import Settings
 from ...errors import NfexError, ParseError
-from ...identity import program_iri
 from ...kg.changes import ChangeSet, graph_triples
+from ...kg.identity import program_iri
+from ...kg.namespaces import NFEX
 from ...kg.shipped import ontology_vocabulary
 from ...kg.terms import n3
 from ...kg.vocab import Vocabulary
-from ...namespaces import NFEX
 from ..shape_text import shape_graph
 from .check import check, problems
 from .compiler import compile_program, decompile

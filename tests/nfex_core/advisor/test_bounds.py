@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 
 from nfex_core.advisor.bounds import SCORE_MARGIN, contenders, next_extraction, ranged_bounds, score_bounds
 from nfex_core.advisor.ranges import MetricRanges
-from nfex_core.fitness import f_metrics
 from nfex_core.kg import KnowledgeGraph
+from nfex_core.rules.fitness import f_metrics
 from nfex_core.rules.types import Decision, Factor
 from nfex_core.vision.metrics import SINGLE_FRAME, TEMPORAL
 

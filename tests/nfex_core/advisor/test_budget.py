@@ -11,7 +11,7 @@ from nfex_core.errors import BadInput, UnknownName
 from nfex_core.kg import KnowledgeGraph
 from nfex_core.rules.dsl import programs
 
-from ..test_cost import add_rows, law, row
+from ..evidence.test_cost import add_rows, law, row
 
 N = "https://w3id.org/nfex#"
 CTX = {"agent": "car", "motion": "slow", "scene": "outdoor"}

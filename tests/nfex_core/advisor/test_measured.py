@@ -12,9 +12,9 @@ import rdflib
 
 from nfex_core.advisor import Advisor
 from nfex_core.kg import KnowledgeGraph
-from nfex_core.namespaces import NFEX
+from nfex_core.kg.namespaces import NFEX
 
-from ..test_cost import add_rows, row
+from ..evidence.test_cost import add_rows, row
 
 RULE = str(NFEX.rule_measured_configuration)
 SLOW = {"agent": "car", "motion": "slow", "scene": "outdoor"}

@@ -38,8 +38,8 @@ from nfex_core.advisor.stages import (
     symbolic,
     verification,
 )
-from nfex_core.cost import BudgetTerms, CostModel, ExtractorCost
 from nfex_core.errors import NoCandidate, UnknownName
+from nfex_core.evidence.cost import BudgetTerms, CostModel, ExtractorCost
 from nfex_core.kg.vocab import ConditionValueSpec, DimensionSpec, ExtractorSpec, ParameterSpec, Vocabulary
 from nfex_core.neural.serve import NeuralStep
 from nfex_core.rules.engine import RuleTable

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from nfex_core.identity import canonical
 from nfex_core.kg import KnowledgeGraph
+from nfex_core.kg.identity import canonical
 from nfex_core.sweeps.records import RunInfo, measurement_graph
 
 

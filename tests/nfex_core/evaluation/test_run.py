@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 from nfex_slam.datasets.synthetic import make_sequence
 
+from cli.plots import draw
 from nfex_core.evaluation import SCHEDULE, as_json, evaluate, frames_csv, markdown
-from nfex_core.evaluation.plots import draw
 from nfex_core.kg import KnowledgeGraph
 
 from .conftest import add_rows, measured_row

@@ -9,8 +9,8 @@ import pytest
 
 from nfex_core.advisor import Advisor
 from nfex_core.errors import BadInput
-from nfex_core.identity import sequence_iri
 from nfex_core.kg import KnowledgeGraph
+from nfex_core.kg.identity import sequence_iri
 from nfex_core.kg.scope import EvidenceScope, excluded_measurements, scoped_graph
 
 from .conftest import add_rows, measured_row

@@ -22,8 +22,8 @@ from nfex_core.errors import Conflict
 from nfex_core.kg import ChangeSet, KnowledgeGraph, claims
 from nfex_core.kg import store as store_module
 from nfex_core.kg.claims import Rival
+from nfex_core.kg.namespaces import NFEX
 from nfex_core.knowledge import open_graph
-from nfex_core.namespaces import NFEX
 
 WRITER = r"""
 import os, sys, time

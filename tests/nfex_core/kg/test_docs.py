@@ -8,7 +8,7 @@ import pytest
 from rdflib.namespace import OWL, RDF
 
 from nfex_core.kg.docs import ontology_modules, render
-from nfex_core.namespaces import NFEX
+from nfex_core.kg.namespaces import NFEX
 
 
 def test_the_page_documents_every_class_and_property(tmp_path: Path) -> None:

@@ -8,9 +8,9 @@ import rdflib
 from rdflib.namespace import OWL, RDF, SH
 
 from nfex_core.kg import KnowledgeGraph
+from nfex_core.kg.namespaces import NFEX
 from nfex_core.kg.owl import CORE, owl_only
 from nfex_core.kg.terms import is_skolem
-from nfex_core.namespaces import NFEX
 from tests.conftest import run_cli
 
 

@@ -3,7 +3,6 @@ knowledge lives in a named graph, and what a server whose default graph is the u
 from __future__ import annotations
 
 import base64
-import dataclasses
 from pathlib import Path
 
 import httpx
@@ -61,7 +60,7 @@ def test_credentials_answer_the_scheme_the_server_asks_for(scheme: str) -> None:
 
 
 def test_the_knowledge_can_live_in_a_named_graph_of_the_embedded_store(tmp_path: Path) -> None:
-    settings = dataclasses.replace(Settings.from_env(), store_graph=KNOWLEDGE_GRAPH)
+    settings = Settings.from_env().replace(store_graph=KNOWLEDGE_GRAPH)
     kg = open_graph(str(tmp_path / "store"), settings=settings)
     n = kg.triple_count()
     assert n > 1000 and kg.add(parse_rdf(CONFIG), author="t").version == 2
@@ -78,14 +77,14 @@ def test_the_knowledge_can_live_in_a_named_graph_of_the_embedded_store(tmp_path:
 def test_a_union_default_graph_is_refused_with_the_setting_to_use(sparql_server: SparqlServer) -> None:
     """Virtuoso shows every named graph in its default graph: without NFEX_STORE_GRAPH nFEX would read its
     version history as knowledge. It says so at open, before seeding."""
-    bare = dataclasses.replace(sparql_server.settings(), store_graph=None)
+    bare = sparql_server.settings().replace(store_graph=None)
     with pytest.raises(StoreUnavailable, match="NFEX_STORE_GRAPH"):
         KnowledgeGraph.open(settings=bare)
 
 
 @pytest.mark.parametrize("sparql_server", ["virtuoso"], indirect=True)
 def test_wrong_credentials_are_a_clear_error(sparql_server: SparqlServer) -> None:
-    wrong = dataclasses.replace(sparql_server.settings(), store_password="not-the-password")
+    wrong = sparql_server.settings().replace(store_password="not-the-password")
     with pytest.raises(StoreUnavailable, match="NFEX_STORE_USER / NFEX_STORE_PASSWORD"):
         KnowledgeGraph.open(settings=wrong)
 

@@ -12,7 +12,7 @@ from nfex_core.errors import Conflict, ParseError, StoreUnavailable, ValidationF
 from nfex_core.kg import ChangeSet, KnowledgeGraph, parse_rdf
 from nfex_core.kg.backends import RemoteBackend
 from nfex_core.kg.history import prefix_block
-from nfex_core.namespaces import NFEX
+from nfex_core.kg.namespaces import NFEX
 from tests.conftest import SparqlServer
 
 CONFIG = """@prefix nfex: <https://w3id.org/nfex#> .

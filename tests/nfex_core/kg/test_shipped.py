@@ -58,7 +58,7 @@ def test_a_home_without_an_ontology_is_told_so(tmp_path: Path) -> None:
     home = tmp_path / "home"
     shutil.copytree(real.rules_dir, home / "rules")
     with pytest.raises(DataMissing, match="no ontology to seed from"):
-        ontology_vocabulary(dataclasses.replace(real, home=home))
+        ontology_vocabulary(real.replace(home=home))
 
 
 def test_a_blank_node_label_in_two_files_is_two_nodes(tmp_path: Path) -> None:

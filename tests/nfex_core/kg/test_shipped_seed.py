@@ -16,11 +16,11 @@ from nfex_core.config import Settings
 from nfex_core.errors import PreconditionFailed
 from nfex_core.kg import ChangeSet, KnowledgeGraph
 from nfex_core.kg.history import ChangeText, version_iri
+from nfex_core.kg.namespaces import NFEX
 from nfex_core.kg.store import META
 from nfex_core.kg.terms import n3
 from nfex_core.knowledge import SEED_AUTHOR, SEED_MESSAGE, open_graph, seed, seed_graph, seed_triples
-from nfex_core.namespaces import NFEX
-from nfex_core.seed_content import seed_content
+from nfex_core.knowledge.seed_content import seed_content
 
 
 def test_the_shipped_seed_conforms(shipped_kg: KnowledgeGraph) -> None:

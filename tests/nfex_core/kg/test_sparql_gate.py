@@ -16,6 +16,7 @@ from rdflib.namespace import SH
 
 from nfex_core.errors import BadInput, ParseError
 from nfex_core.kg.changes import ChangeSet
+from nfex_core.kg.namespaces import NFEX
 from nfex_core.kg.sparql_gate import (
     MAX_CHARS,
     MAX_DEPTH,
@@ -26,7 +27,6 @@ from nfex_core.kg.sparql_gate import (
     gate_query,
     gate_update,
 )
-from nfex_core.namespaces import NFEX
 
 ROOT = Path(__file__).resolve().parents[3]
 

@@ -7,7 +7,7 @@ from rdflib.namespace import RDFS
 
 from nfex_core.errors import BadInput, NotFound, ParseError, PreconditionFailed, ValidationFailed
 from nfex_core.kg import ChangeSet, KnowledgeGraph, graph_triples, parse_rdf
-from nfex_core.namespaces import NFEX
+from nfex_core.kg.namespaces import NFEX
 
 P = "@prefix nfex: <https://w3id.org/nfex#> . @prefix rdfs: <http://www.w3.org/2000/01/rdf-schema#> .\n"
 CONFIG = P + """
@@ -150,7 +150,6 @@ def test_second_process_on_the_same_folder_gets_a_clear_error(store_path) -> Non
 def test_seed_sync_removes_what_left_the_files(kg: KnowledgeGraph, tmp_path, monkeypatch) -> None:  # type: ignore[no-untyped-def]
     """`nfex kg seed` brings the store in line with the repository without touching other data."""
     import shutil
-    from dataclasses import replace
 
     from nfex_core.knowledge import seed
 
@@ -160,7 +159,7 @@ def test_seed_sync_removes_what_left_the_files(kg: KnowledgeGraph, tmp_path, mon
     kg.add(parse_rdf(CONFIG), author="user")
     text = (home / "ontology" / "metrics.ttl").read_text()
     (home / "ontology" / "metrics.ttl").write_text(text.replace('rdfs:label "texturedness"@en', 'rdfs:label "texture variance"@en'))
-    kg.settings = replace(kg.settings, home=home)
+    kg.settings = kg.settings.replace(home=home)
     result = seed(kg)
     assert result.changed and (result.added, result.removed) == (1, 1)
     labels = {str(o) for o in kg.data_graph().objects(NFEX.texturedness, RDFS.label)}

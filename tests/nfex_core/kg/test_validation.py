@@ -16,8 +16,8 @@ from rdflib import Literal, URIRef
 from rdflib.namespace import RDF, XSD
 
 from nfex_core.kg import ChangeSet, KnowledgeGraph, parse_rdf
+from nfex_core.kg.namespaces import NFEX, RDFS, SOSA
 from nfex_core.kg.validation import validate_graph
-from nfex_core.namespaces import NFEX, RDFS, SOSA
 
 BASE = """@prefix nfex: <https://w3id.org/nfex#> .
 nfex:base_orb a nfex:Configuration ; nfex:ofExtractor nfex:ORB ; nfex:hasSetting nfex:base_orb_sf, nfex:base_orb_nf .
@@ -233,8 +233,8 @@ def test_results_that_tie_on_node_shape_and_message_come_in_one_order() -> None:
     test_shacl_process.py, where the worker listed a measurement's two sh:class violations the other way round)."""
     import rdflib
 
+    from nfex_core.kg.namespaces import SH
     from nfex_core.kg.validation import parse_report
-    from nfex_core.namespaces import SH
 
     def results(order: list[str]) -> rdflib.Graph:
         g = rdflib.Graph()

@@ -8,7 +8,7 @@ import pytest
 from nfex_core.kg import KnowledgeGraph
 from nfex_core.kg.vocab import Vocabulary
 from nfex_core.neural.artifacts import NeuralModel
-from nfex_core.neural.train import TrainReport, train
+from nfex_core.neural.training.train import TrainReport, train
 
 from .tablegen import make_table
 

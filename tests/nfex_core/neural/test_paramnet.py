@@ -4,9 +4,9 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nfex_core.neural import torch_nets
 from nfex_core.neural.encoding import InputVocabulary, ParamScale
 from nfex_core.neural.paramnet import ParamNet, decode, init_weights
+from nfex_core.neural.training import torch_nets
 
 
 def torch_forward(weights: dict[str, np.ndarray], x: np.ndarray) -> np.ndarray:

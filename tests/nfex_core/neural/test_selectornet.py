@@ -4,8 +4,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nfex_core.neural import torch_nets
 from nfex_core.neural.selectornet import IMAGE_HW, SelectorNet, conv2d_hwc, init_weights, masked_probabilities
+from nfex_core.neural.training import torch_nets
 
 
 def torch_logits(weights: dict[str, np.ndarray], images: np.ndarray, numeric: np.ndarray) -> np.ndarray:

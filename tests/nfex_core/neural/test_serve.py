@@ -7,9 +7,9 @@ import pytest
 
 from nfex_core.advisor import Advisor
 from nfex_core.errors import UnknownName
-from nfex_core.fitness import adjust_params
 from nfex_core.kg import KnowledgeGraph
 from nfex_core.kg.sparql_query import with_prefixes
+from nfex_core.rules.fitness import adjust_params
 
 from .test_artifacts import NARROW_NFEATURES
 
@@ -173,7 +173,7 @@ def test_nfex_select_reports_the_model(trained, store_path: Path, tmp_path: Path
     _, model = trained
     code = (
         "import sys, runpy; sys.argv = ['nfex', '--store', sys.argv[1], 'select', '--context', 'agent=car,light=dark', '--json'];"
-        "import nfex_core.cli.main as m\ntry:\n    m.main()\nfinally:\n    print('TORCH' if 'torch' in sys.modules else 'NOTORCH', file=sys.stderr)"
+        "import cli.main as m\ntry:\n    m.main()\nfinally:\n    print('TORCH' if 'torch' in sys.modules else 'NOTORCH', file=sys.stderr)"
     )
     env = {**os.environ, "NFEX_MODELS": str(model.path), "NFEX_NEURAL": "both"}
     p = subprocess.run([sys.executable, "-c", code, str(store_path)], capture_output=True, text=True, timeout=120, env=env)

@@ -15,7 +15,7 @@ from nfex_core.feedback import Feedback, ReportWriter
 from nfex_core.kg import KnowledgeGraph
 from nfex_core.kg.changes import ChangeSet, evidence_only, graph_triples
 from nfex_core.kg.footprint import footprint, reads
-from nfex_core.namespaces import NFEX, RDF
+from nfex_core.kg.namespaces import NFEX, RDF
 from nfex_core.rules import pruning
 from nfex_core.rules.dsl.programs import compile_text
 from nfex_core.rules.engine import RuleTable, compile_table

@@ -50,7 +50,7 @@ def test_sweep_writes_rows_and_measurements_and_resumes(kg: KnowledgeGraph, data
     from rdflib import RDF
 
     from nfex_core.kg.changes import read_rdf_file
-    from nfex_core.namespaces import NFEX
+    from nfex_core.kg.namespaces import NFEX
 
     mine = tmp_path / "m.nt.gz"
     cells = [r["cell"] for r in table.read(csv)][:2]

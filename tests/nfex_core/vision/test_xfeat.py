@@ -2,7 +2,6 @@
 out of the serving process, and bad input (small frame, top_k, weights) as the project's usual errors."""
 from __future__ import annotations
 
-import dataclasses
 import os
 import subprocess
 import sys
@@ -55,8 +54,8 @@ def test_onnx_runtime_equals_torch(xfeat_ready: None) -> None:
     pytest.importorskip("torch")
     image = np.random.default_rng(0).random((96, 160), dtype=np.float32)
     base = Settings.from_env()
-    onnx = model.network(dataclasses.replace(base, learned_runtime="onnx")).run(image)
-    torch_out = model.network(dataclasses.replace(base, learned_runtime="torch")).run(image)
+    onnx = model.network(base.replace(learned_runtime="onnx")).run(image)
+    torch_out = model.network(base.replace(learned_runtime="torch")).run(image)
     for a, b in zip(onnx, torch_out, strict=True):
         assert a.shape == b.shape
         np.testing.assert_allclose(a, b, atol=1e-3)
@@ -94,7 +93,7 @@ def test_out_of_range_parameters_name_themselves(params: dict[str, object], name
 
 
 def test_missing_weights_file_is_named(vocab: Vocabulary, tmp_path: Path) -> None:
-    settings = dataclasses.replace(Settings.from_env(), xfeat_weights=tmp_path / "none.pt")
+    settings = Settings.from_env().replace(xfeat_weights=tmp_path / "none.pt")
     why = unavailable(vocab.extractors, settings)
     assert set(why) == {"XFEAT"}
     assert why["XFEAT"].setting == "NFEX_XFEAT_WEIGHTS" and str(tmp_path / "none.pt") in why["XFEAT"].detail
@@ -104,7 +103,7 @@ def test_missing_weights_file_is_named(vocab: Vocabulary, tmp_path: Path) -> Non
 
 
 def test_unknown_runtime_is_named(vocab: Vocabulary) -> None:
-    why = unavailable(vocab.extractors, dataclasses.replace(Settings.from_env(), learned_runtime="tensorrt"))
+    why = unavailable(vocab.extractors, Settings.from_env().replace(learned_runtime="tensorrt"))
     assert why["XFEAT"].setting == "NFEX_LEARNED_RUNTIME" and "onnx, torch" in why["XFEAT"].detail
 
 

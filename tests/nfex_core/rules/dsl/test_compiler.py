@@ -6,8 +6,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from rdflib.namespace import RDF
 
+from nfex_core.kg.namespaces import NFEX
 from nfex_core.kg.vocab import Vocabulary
-from nfex_core.namespaces import NFEX
 from nfex_core.rules.dsl.check import check
 from nfex_core.rules.dsl.compiler import compile_program, decompile, program_iri
 from nfex_core.rules.dsl.parser import Atom, Program, Statement, parse, render

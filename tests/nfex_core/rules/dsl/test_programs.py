@@ -10,8 +10,8 @@ from nfex_core.config import REPO_ROOT
 from nfex_core.errors import NotFound, ValidationFailed
 from nfex_core.kg import KnowledgeGraph
 from nfex_core.kg.changes import ChangeSet, graph_triples
+from nfex_core.kg.namespaces import NFEX
 from nfex_core.kg.vocab import Vocabulary
-from nfex_core.namespaces import NFEX
 from nfex_core.rules.dsl import programs
 from nfex_core.rules.dsl.parser import parse_file
 
@@ -98,7 +98,7 @@ def test_seeding_stops_on_a_program_with_an_unknown_name(tmp_path: Path) -> None
     (home / "rules" / "programs" / "typo.nfex").write_text("prune ORB when light is dim\n")
     s = Settings.from_env()
     with pytest.raises(UnknownName, match=r"typo.nfex:1:25: unknown value of light 'dim'; known: bright, dark"):
-        seed_graph(Settings(s.store, home, s.data, s.models))
+        seed_graph(Settings(store=s.store, home=home, data=s.data, models=s.models))
 
 
 def test_a_program_pruning_xfeat_for_drones_applies(kg: KnowledgeGraph) -> None:
