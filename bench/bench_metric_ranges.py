@@ -33,7 +33,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "clients" / "slam"))
 
 from nfex_core.advisor import Advisor  # noqa: E402
-from nfex_core.identity import sequence_iri  # noqa: E402
+from nfex_core.kg.identity import sequence_iri  # noqa: E402
 from nfex_core.knowledge import open_graph  # noqa: E402
 
 CONTEXTS: dict[str, dict[str, object]] = {"car": {"agent": "car"}, "drone": {"agent": "drone"},

@@ -90,7 +90,7 @@ def test_a_car_extracts_what_can_change_the_answer_over_the_sound_bounds(shipped
 
 def test_an_evaluation_holding_out_kitti_00_does_not_use_its_ranges(shipped_kg: KnowledgeGraph, data_dir: Path) -> None:
     """The ranges were measured on KITTI 00: an advisor whose evidence scope holds KITTI 00 out bounds over [0, 1]."""
-    from nfex_core.identity import sequence_iri
+    from nfex_core.kg.identity import sequence_iri
     from nfex_core.kg.scope import EvidenceScope
 
     scope = EvidenceScope(exclude_sequences=frozenset({str(sequence_iri("kitti", "00"))}))
