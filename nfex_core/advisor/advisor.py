@@ -44,6 +44,7 @@ from ..rules.engine import RuleEngine
 from ..rules.persisted import CompiledCache, store_key
 from ..rules.table import RuleTable
 from .pipeline import PIPELINE, Flow, Request
+from .ranges import MetricRanges
 from .reuse import ReuseTerms
 from .scoring import SCORE_PIXELS, FrameState, Scorer
 from .selection import Selection
@@ -63,6 +64,7 @@ class Snapshot:
     table: RuleTable
     programs: dict[str, int]
     reuse: ReuseTerms = field(default_factory=ReuseTerms)
+    ranges: MetricRanges = field(default_factory=MetricRanges)  # measured metric ranges (ranges.py)
     taken_at: float = field(default_factory=time.monotonic)
     _registry: Any = None
     # context-only answers depend on the decision alone: computed once per context and snapshot (stages.py)
@@ -170,7 +172,8 @@ class Advisor:
         programs: dict[str, int] = {}
         for s in table.statements:
             programs[s.program] = programs.get(s.program, 0) + 1
-        return Snapshot(table.version, vocab, table, programs, ReuseTerms.load(self.kg))
+        return Snapshot(table.version, vocab, table, programs, ReuseTerms.load(self.kg),
+                        MetricRanges.load(self.kg, self.scope.exclude_sequences))
 
     # ------------------------------------------------------------------ the flow
     def select(
@@ -202,7 +205,7 @@ class Advisor:
         compute = compute or ctx.pop("compute", None)
         ctx.pop("compute", None)
         request = Request(
-            vocab=snap.vocab, table=snap.table, version=snap.version, programs=snap.programs, reuse=snap.reuse,
+            vocab=snap.vocab, table=snap.table, version=snap.version, programs=snap.programs, reuse=snap.reuse, ranges=snap.ranges,
             registry=lambda: snap.registry, memo=snap.priors, context=ctx, frame=frame, previous=previous,
             budget_ms=budget_ms, compute=compute, frame_size=frame_size, neural=self.neural.step(snap.vocab),
             scorer=self.scorer, exhaustive=self.exhaustive_scoring, session=session, verdict_held=verdict_held,

@@ -8,7 +8,9 @@ score therefore lies in
     high(α) = bonus(α) + Σ_{x ∈ M(α)} max(0, h_x) + H·A(α),
 
 M(α) the metrics α will have on this frame (the single-frame ones, and the temporal ones where the previous
-frame holds α); an unweighted metric weighs 1, as in fitness.f_metrics. Once α is extracted, low = high = its
+frame holds α); an unweighted metric weighs 1, as in fitness.f_metrics. Where the graph holds measured metric
+ranges (ranges.py), ``ranged_bounds`` replaces each [0, 1] by the measured range [lo_x, hi_x] of the oriented
+metric: low(α) = bonus + Σ min(h_x·lo_x, h_x·hi_x) + H·A(α), high likewise with max — evidence, not a proof. Once α is extracted, low = high = its
 score. α* is settled when one candidate's low exceeds every other candidate's high by SCORE_MARGIN — then
 nothing more is extracted, possibly nothing at all — or when every candidate that can still reach the leader's
 low has been scored (the tie-break of choice.py decides among equal scores).
@@ -27,6 +29,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping
 
+from ..kg.vocabulary.vocab import MetricSpec
 from ..rules.types import Decision
 
 SCORE_MARGIN = 1e-9  # a bound decides only by more than rounding
@@ -41,6 +44,24 @@ def score_bounds(decision: Decision, metric_names: Iterable[str], known_metrics:
     weights = [decision.weights[m].value if m in decision.weights else 1.0 for m in metric_names if m in known]
     base = bonus + weight * accuracy
     return base + sum(min(0.0, w) for w in weights), base + sum(max(0.0, w) for w in weights)
+
+
+def ranged_bounds(decision: Decision, specs: Mapping[str, MetricSpec], metric_names: Iterable[str], extractor: str,
+                  accuracy: float, weight: float, spans: Mapping[str, tuple[float, float]]) -> tuple[float, float]:
+    """(low, high) of F_metrics + H·A for ``extractor`` with each metric's raw value in ``spans`` (default [0, 1]),
+    oriented as fitness.oriented turns it (module docstring)."""
+    bonus = decision.bonuses[extractor].value if extractor in decision.bonuses else 0.0
+    low = high = bonus + weight * accuracy
+    for m in metric_names:
+        if m not in specs:
+            continue
+        lo, hi = spans.get(m, (0.0, 1.0))
+        if not specs[m].higher_is_better:
+            lo, hi = 1.0 - hi, 1.0 - lo
+        w = decision.weights[m].value if m in decision.weights else 1.0
+        low += min(w * lo, w * hi)
+        high += max(w * lo, w * hi)
+    return low, high
 
 
 def leader(intervals: Mapping[str, tuple[float, float]]) -> str:
@@ -91,10 +112,12 @@ def next_extraction(intervals: Mapping[str, tuple[float, float]], open_: Iterabl
     return max(pending, key=value)
 
 
-def settled_reason(intervals: Mapping[str, tuple[float, float]], alpha: str) -> str:
-    """Why ``alpha`` is α* without being extracted: its low bound against every other high bound."""
+def settled_reason(intervals: Mapping[str, tuple[float, float]], alpha: str, evidence: str = "") -> str:
+    """Why ``alpha`` is α* without being extracted: its low bound against every other high bound (``evidence``: the
+    measured metric ranges the bounds rest on, where they do)."""
     low = intervals[alpha][0]
     others = [(h, x) for x, (_, h) in intervals.items() if x != alpha]
     high, best = max(others, default=(-math.inf, "no other candidate"))
-    return (f"settled by bounds: its score is at least {low:.4f} whatever its metrics and no other candidate's can "
+    within = f"with its metrics in the ranges measured on {evidence}" if evidence else "whatever its metrics"
+    return (f"settled by bounds: its score is at least {low:.4f} {within} and no other candidate's can "
             f"exceed {high:.4f} ({best}); not extracted, its score is that least value")

@@ -19,6 +19,7 @@ from ..kg.vocabulary.vocab import Vocabulary
 from ..neural.serve import NeuralStep
 from .conditions import Conditions
 from .params import Parameters
+from .ranges import MetricRanges
 from .reuse import ReuseTerms
 from .scoring import FrameState, Scored, Scorer
 from .selection import Selection
@@ -59,6 +60,7 @@ class Request:
     version: int
     programs: Mapping[str, int]
     reuse: ReuseTerms
+    ranges: MetricRanges  # the snapshot's measured metric ranges (ranges.py)
     registry: Callable[[], Any]  # the snapshot's extractor registry (built on first use: it imports cv2)
     memo: Memo  # the snapshot's per-context answers (what does not depend on a frame)
     context: Mapping[str, Any]  # the client's context, without ``budget_ms`` and ``compute``
@@ -144,7 +146,8 @@ def _take_scoring(f: Flow) -> ScoringIn:
     r, cond, sym = f.request, _need(f.conditions), _need(f.symbolic)
     candidates = _need(f.budget).candidates if sym.carried is None else {}
     return ScoringIn(r.vocab, r.registry, sym.decision, candidates, r.neural, cond.image, r.previous, r.scorer,
-                     r.table.cost, r.exhaustive, r.memo if cond.image is None else None, sym.carried, r.session)
+                     r.table.cost, r.exhaustive, r.memo if cond.image is None else None, sym.carried, r.session,
+                     r.ranges)
 
 
 def _take_verification(f: Flow) -> VerificationIn:

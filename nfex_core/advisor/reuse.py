@@ -20,6 +20,11 @@ statistics: frame t+1 keeps the decision made on frame d ≤ t when
     verdict did not reject α* (the pair was accepted on the first proposal, or no verdict was reported); and
     fewer than nfex:sessionDecisionFrames − 1 frames have reused it,
 
+where an estimate differs only if its value differs with a confidence of at least nfex:sessionConditionConfidence
+(a dead band about each threshold: vision.context's confidence c = 0.5 + 0.45·min(1, |ln(s/τ)| / ln 2) is the
+log-distance of the statistic s from its threshold τ, so c ≥ 0.6 is |ln(s/τ)| ≥ 0.154: s beyond τ by a factor of 1.17; an
+estimate inside the band is as likely the decision's value as its own and is no evidence of a change),
+
 so a session re-decides on a change of the given context, on an estimate that holds, on a rejected pair, and
 at least every nfex:sessionDecisionFrames frames (both data: rules/pruning/thresholds.ttl). A reused frame
 extracts α* alone (the stream's features stay those of neighbouring frames for the next decision's temporal
@@ -46,6 +51,7 @@ class ReuseTerms:
     change: float = 0.0
     session: int = 0  # nfex:sessionDecisionFrames: a session's decision serves at most this many frames (0, 1: each scored)
     hold: int = 1  # nfex:sessionConditionFrames: frames in a row a changed estimate must hold to re-decide a session
+    firm: float = 0.0  # nfex:sessionConditionConfidence: the least confidence of an estimate that differs in a session
 
     @classmethod
     def load(cls, kg: KnowledgeGraph) -> ReuseTerms:
@@ -57,7 +63,7 @@ class ReuseTerms:
 
         frames, change = value("decisionReuseFrames"), value("decisionReuseChange")
         return cls(max(0, int(frames or 0)), max(0.0, change or 0.0), max(0, int(value("sessionDecisionFrames") or 0)),
-                   max(1, int(value("sessionConditionFrames") or 1)))
+                   max(1, int(value("sessionConditionFrames") or 1)), max(0.0, value("sessionConditionConfidence") or 0.0))
 
     def limit(self, session: bool) -> int:
         """How many frames in a row may reuse one decision (0: none)."""
@@ -83,17 +89,29 @@ def moved(before: Mapping[str, float], after: Mapping[str, float], keys: tuple[s
     return max((abs(after[k] - before[k]) / max(abs(after[k]), abs(before[k]), FLOOR) for k in keys), default=0.0)
 
 
+def differs(terms: ReuseTerms, decided: tuple[tuple[str, str | None], ...], estimate: tuple[tuple[str, str | None], ...],
+            confidence: Mapping[str, float | None]) -> bool:
+    """Whether a session frame's ``estimate`` differs from the ``decided`` one: some dimension's value differs with a
+    confidence of at least ``terms.firm`` (an estimate without a confidence always counts; module docstring)."""
+    before = dict(decided)
+    if set(before) != {d for d, _ in estimate}:
+        return True
+    return any(value != before[d] and (confidence.get(d) is None or confidence[d] >= terms.firm)  # type: ignore[operator]
+               for d, value in estimate)
+
+
 def reusable(terms: ReuseTerms, last: Decided | None, key: tuple[Any, ...], stats: Mapping[str, float] | None,
              keys: tuple[str, ...], session: bool = False, verdict_held: bool = True,
-             estimate: tuple[tuple[str, str | None], ...] = ()) -> Decided | None:
-    """``last`` carried to a frame decided under ``key`` with ``stats`` (and, in a session, ``estimate``) if it may
-    answer it (module docstring), else None: in a stream while the statistics have not moved, in a session while
-    its evidence holds."""
+             estimate: tuple[tuple[str, str | None], ...] = (),
+             confidence: Mapping[str, float | None] | None = None) -> Decided | None:
+    """``last`` carried to a frame decided under ``key`` with ``stats`` (and, in a session, ``estimate`` with each
+    dimension's ``confidence``) if it may answer it (module docstring), else None: in a stream while the statistics
+    have not moved, in a session while its evidence holds."""
     if last is None or stats is None or last.reused >= terms.limit(session) or last.key != key:
         return None
     if not session:
         return replace(last, reused=last.reused + 1) if moved(last.stats, stats, keys) <= terms.change else None
     if not verdict_held:
         return None
-    differed = 0 if estimate == last.estimate else last.differed + 1
+    differed = last.differed + 1 if differs(terms, last.estimate, estimate, confidence or {}) else 0
     return replace(last, reused=last.reused + 1, differed=differed) if differed < terms.hold else None

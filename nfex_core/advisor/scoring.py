@@ -13,8 +13,9 @@ with probability 0 and not extracted at all.
 
 Only what can still win is extracted (Scorer): SelectorNet's choice is settled by interval bounds over the
 metrics not yet measured, and under F_metrics every score is bounded from both sides before extraction
-(bounds.py) and only what can narrow the leader's margin is extracted — nothing, where the bounds alone settle
-α*; α* and Θ′ are those of scoring every candidate. The Selection's ``scoring`` says which (scored, settled,
+(bounds.py; each metric's [0, 1] narrowed by the graph's measured metric ranges while they hold on the frame,
+ranges.py) and only what can narrow the leader's margin is extracted — nothing, where the bounds alone settle
+α*; α* and Θ′ are those of scoring every candidate (over the measured ranges: where the frame's metrics lie in them). The Selection's ``scoring`` says which (scored, settled,
 unscored) and how many extractions and pixels it took.
 
 Without a frame (mode ``prior``): score(α) = bonus + A(α), computed once per context and snapshot.
@@ -36,8 +37,9 @@ from ..neural.serve import BoundedChoice, NeuralStep
 from ..rules.fitness import f_metrics
 from ..rules.types import Decision
 from ..vision.work import Work
-from .bounds import contenders, next_extraction, score_bounds, settled_reason
+from .bounds import contenders, next_extraction, ranged_bounds, score_bounds, settled_reason
 from .params import Candidate, Parameters
+from .ranges import MetricRanges
 from .reuse import Decided
 from .selection import SCORED, SETTLED, CandidateEvidence, CandidateScore, Scoring
 
@@ -99,7 +101,8 @@ class Scorer:
     decides, every candidate's score is bounded from both sides before anything is extracted (bounds.py: the
     bonus, H·A and the range of each metric it will have); a candidate is extracted only while the leader's low
     bound is below another's high bound, one at a time, the one whose extraction narrows that gap most per
-    expected ms. When the bounds settle α* nothing is extracted. α*, Θ′ and the order of the scored candidates
+    expected ms; the graph's measured metric ranges narrow those bounds for a single answer while they hold on the
+    frame (ranges.py). When the bounds settle α* nothing is extracted. α*, Θ′ and the order of the scored candidates
     are those of exhaustive scoring; candidates not extracted are listed with the reason (α*, when settled by
     bounds, with its least score). Where a verified pair tries the first ``top`` proposals, every candidate
     that may be among them is scored, so their order is exact. ``exhaustive=True`` scores every candidate."""
@@ -128,10 +131,12 @@ class Scorer:
         exhaustive: bool = False,
         cost: CostModel | None = None,
         top: int = 1,
+        ranges: MetricRanges | None = None,
     ) -> Scored:
         """Score the candidates of ``params`` on ``image`` that can still win (class docstring); ``cost`` gives each
         candidate's expected extraction time at the scoring size (the order of extraction, bounds.py); ``top``: how
-        many of the first candidates must be in exact order (a verified pair's proposals)."""
+        many of the first candidates must be in exact order (a verified pair's proposals); ``ranges``: the graph's
+        measured metric ranges, which narrow the bounds of a single answer while they hold on the frame (ranges.py)."""
         from ..vision.metrics import SINGLE_FRAME, TEMPORAL, compute_metrics
 
         small = downscale(image, self.score_pixels)
@@ -213,11 +218,29 @@ class Scorer:
             break  # SelectorNet declines: F_metrics and the measured accuracy decide among all candidates
         by_name = {c.extractor: c for c in everything}
         bounds = {x: score_bounds(decision, will_have(x), vocab.metrics, x, accuracy.get(x, 0.0), weight) for x in by_name}
+        evidence = ranges if ranges and top == 1 and not exhaustive else None
+        held = [evidence is not None]  # whether the measured ranges held on this frame so far
+
+        def narrowed(x: str, extracted: Mapping[str, Mapping[str, float]]) -> tuple[float, float] | None:
+            assert evidence is not None
+            spans = {}
+            for m in will_have(x):
+                span = evidence.span(x, m, extracted)
+                if span is None:
+                    return None
+                spans[m] = span
+            return ranged_bounds(decision, vocab.metrics, will_have(x), x, accuracy.get(x, 0.0), weight, spans)
         ms = {x: extraction_ms(cost, vocab, x, at_scale[x], small.shape, decision, by_name[x]) * (1 + (
             previous is not None and temporal(x) and x not in previous.features)) for x in by_name}
 
         def intervals() -> dict[str, tuple[float, float]]:
             out = dict(bounds)
+            if held[0] and evidence is not None:
+                extracted = {x: s.metrics for x, (s, _) in done.items()}
+                tight = {x: narrowed(x, extracted) for x in by_name if x not in done}
+                held[0] = evidence.holds(extracted) and all(b is not None for b in tight.values())
+                if held[0]:
+                    out.update(tight)  # type: ignore[arg-type]
             for x, (s, _) in done.items():
                 out[x] = (s.score, s.score) if s.score is not None else out[x]
             return out
@@ -228,18 +251,20 @@ class Scorer:
             run([by_name[pick]])
         final = intervals()
         alpha, _ = contenders(final)
+        within = (f"with its metrics in the ranges measured on {evidence.source}" if held[0] and evidence is not None
+                  else "whatever its metrics")
         skipped: dict[str, str] = {}
         for x in by_name:
             if x in done:
                 continue
             if x == alpha:
-                skipped[x] = settled_reason(final, x)
+                skipped[x] = settled_reason(final, x, evidence.source if held[0] and evidence is not None else "")
             elif top > 1:
                 skipped[x] = (f"cannot be among the first {top} proposals: {top} candidates score more than its "
                               f"most, {final[x][1]:.4f}, whatever its metrics")
             else:
                 skipped[x] = (f"cannot overtake {alpha} ({final[alpha][0]:.4f}): its score is at most "
-                              f"{final[x][1]:.4f} whatever its metrics")
+                              f"{final[x][1]:.4f} {within}")
         # listed in the order exhaustive scoring lists them (SelectorNet's first), which breaks exact ties
         order = sorted(everything, key=lambda c: c.extractor not in known)
         listed = []
@@ -255,7 +280,8 @@ class Scorer:
                 listed.append(unscored(decision, c, skipped[c.extractor]))
         if alpha in done:
             how = tally.scoring(SCORED, f"F_metrics + H·A on the frame; {len(done)} of {len(by_name)} candidates "
-                                f"extracted, the others cannot overtake {alpha} whatever their metrics")
+                                f"extracted, the others cannot overtake {alpha} "
+                                + ("within their measured metric ranges" if held[0] else "whatever their metrics"))
         else:
             how = tally.scoring(SETTLED, f"{alpha} {skipped[alpha]}")
         return Scored(listed, state(params.candidates), "metrics", how)

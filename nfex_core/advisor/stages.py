@@ -27,6 +27,7 @@ from .budget import Budget, BudgetOutcome, resolve_budget, settle
 from .choice import ranked
 from .conditions import Conditions, read_conditions
 from .params import Candidate, Parameters, theta
+from .ranges import MetricRanges
 from .reuse import Decided, ReuseTerms, reusable
 from .scoring import FrameState, Scored, Scorer, by_network, downscale, prior_scores
 from .selection import UNSCORED, CandidateScore, PrunedCandidate, Scoring, Selection
@@ -101,7 +102,8 @@ def symbolic(i: SymbolicIn) -> Symbolic:
     if i.last is not None:
         from ..vision.statistics import FRAME_KEYS
 
-        carried = reusable(i.reuse, i.last, key, cond.stats, FRAME_KEYS, i.session, i.verdict_held, estimate)
+        confidence = {e.dimension: e.confidence for e in cond.entries if e.source != "given"}
+        carried = reusable(i.reuse, i.last, key, cond.stats, FRAME_KEYS, i.session, i.verdict_held, estimate, confidence)
     return Symbolic(decision, budget, key, estimate, carried)
 
 
@@ -202,6 +204,7 @@ class ScoringIn:
     memo: Memo | None = None  # without a frame: the prior scores once per context and snapshot
     carried: Decided | None = None
     session: bool = False
+    ranges: MetricRanges | None = None  # measured metric ranges: evidence that narrows the bounds (ranges.py)
 
 
 def scoring(i: ScoringIn) -> Scored:
@@ -225,7 +228,7 @@ def scoring(i: ScoringIn) -> Scored:
     # verification tries the first proposals in order: those must be scored, not only the winner
     top = i.decision.verification.max_tries if i.decision.verification.active else 1
     scored = i.scorer.on_frame(i.vocab, i.registry(), i.decision, Parameters(dict(i.candidates)), i.neural, i.image,
-                               i.previous, i.exhaustive, i.cost, top)
+                               i.previous, i.exhaustive, i.cost, top, i.ranges)
     return replace(scored, candidates=ranked(i.decision, scored.candidates))
 
 

@@ -52,6 +52,18 @@ CASES = {
         "ORB_extra",
         "ParameterShape",
     ),
+    "metric range whose least value exceeds its most": (
+        "nfex:r1 a nfex:MetricRange ; nfex:rangeExtractor nfex:ORB ; nfex:rangeMetric nfex:texturedness ; "
+        'nfex:rangeLow "0.6"^^xsd:double ; nfex:rangeHigh "0.4"^^xsd:double .',
+        "r1",
+        "MetricRangeShape",
+    ),
+    "metric range of no metric": (
+        "nfex:r1 a nfex:MetricRange ; nfex:rangeExtractor nfex:ORB ; nfex:rangeMetric nfex:ORB ; "
+        'nfex:rangeLow "0.1"^^xsd:double ; nfex:rangeHigh "0.4"^^xsd:double .',
+        "r1",
+        "MetricRangeShape",
+    ),
     "parameter minimum above maximum": (
         'nfex:ORB_extra a nfex:Parameter ; nfex:parameterOf nfex:ORB ; nfex:opencvName "extra" ; nfex:role nfex:OtherRole ; '
         "nfex:datatype xsd:integer ; nfex:defaultValue 5 ; nfex:minValue 9 ; nfex:maxValue 3 .",

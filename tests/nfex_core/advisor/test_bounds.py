@@ -8,7 +8,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from nfex_core.advisor.bounds import SCORE_MARGIN, contenders, next_extraction, score_bounds
+from nfex_core.advisor.bounds import SCORE_MARGIN, contenders, next_extraction, ranged_bounds, score_bounds
+from nfex_core.advisor.ranges import MetricRanges
 from nfex_core.kg import KnowledgeGraph
 from nfex_core.rules.fitness import f_metrics
 from nfex_core.rules.types import Decision, Factor
@@ -87,3 +88,35 @@ def test_the_first_k_are_scored_in_exact_order(specs, p: dict, k: int) -> None: 
     kth = exact[best[-1]]
     # every candidate scoring at least the k-th best was scored, so the first k in score order are exact
     assert all(x in done for x in exact if exact[x] >= kth - SCORE_MARGIN or math.isclose(exact[x], kth))
+
+
+span = st.tuples(unit, unit).map(sorted).map(tuple)
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(problem, st.data())
+def test_measured_ranges_bound_every_score_whose_metrics_lie_in_them(specs, p: dict, data) -> None:  # type: ignore[no-untyped-def, type-arg]
+    """Any metric values inside the ranges give a score inside ranged_bounds, which lies inside the sound bounds."""
+    decision, _, bounds, _ = scores(p, specs)
+    H = sum(w.value for w in decision.weights.values())
+    for i, c in enumerate(p["candidates"]):
+        x, have = f"X{i}", METRICS if c["temporal"] else SINGLE_FRAME
+        spans = {m: data.draw(span) for m in have}
+        metrics = {m: data.draw(st.floats(*spans[m])) for m in have}
+        low, high = ranged_bounds(decision, specs, have, x, c["accuracy"], H, spans)
+        score = f_metrics(metrics, decision.weights, specs, c["bonus"]) + H * c["accuracy"]
+        assert low - 1e-9 <= score <= high + 1e-9
+        assert bounds[x][0] - 1e-9 <= low <= high <= bounds[x][1] + 1e-9
+
+
+@given(st.tuples(unit, unit).map(sorted), st.tuples(st.floats(-1, 1), st.floats(-1, 1)).map(sorted), unit)
+def test_a_metric_range_narrows_by_what_was_extracted_or_says_it_does_not_hold(single, paired, other: float) -> None:  # type: ignore[no-untyped-def]
+    ranges = MetricRanges({("A", "density"): tuple(single)}, {("A", "B", "density"): tuple(paired)})  # type: ignore[arg-type]
+    alone = ranges.span("A", "density", {})
+    assert alone == tuple(single)
+    got = ranges.span("A", "density", {"B": {"density": other}})
+    lo, hi = max(single[0], other + paired[0], 0.0), min(single[1], other + paired[1], 1.0)
+    assert got == ((lo, hi) if lo <= hi else None)
+    assert ranges.span("C", "density", {"B": {"density": other}}) == (0.0, 1.0)  # no range: the sound [0, 1]
+    assert ranges.holds({"A": {"density": single[0]}}) and ranges.holds({"C": {"density": 0.5}})
+    assert not ranges.holds({"A": {"density": single[1] + 1e-3}})

@@ -40,7 +40,7 @@ def test_the_shipped_graph_scores_every_frame(kg: KnowledgeGraph, data_dir: Path
 
 def test_a_still_frame_reuses_the_decision_at_most_n_frames(kg: KnowledgeGraph, data_dir: Path) -> None:
     allow_reuse(kg, 2)
-    assert ReuseTerms.load(kg) == ReuseTerms(2, 0.05, 30, 2)
+    assert ReuseTerms.load(kg) == ReuseTerms(2, 0.05, 30, 2, 0.6)
     image = cv2.imread(str(sorted((data_dir / FRAMES).glob("*.png"))[40]), cv2.IMREAD_GRAYSCALE)
     out = stream(Advisor(kg), [image] * 5, {"agent": "drone"})
     assert [s.reused for s in out] == [0, 1, 2, 0, 1]
@@ -131,3 +131,37 @@ def test_a_session_re_decides_once_a_changed_estimate_holds(kg: KnowledgeGraph, 
     assert advisor.select(ctx, dark, once.state, session=True).reused == 0
     back = advisor.select(ctx, image, once.state, session=True)  # the flicker ends: the decision stands
     assert back.reused == 2
+
+
+def dead_band(kg: KnowledgeGraph, confidence: float) -> None:
+    kg.update(f"""PREFIX nfex: <https://w3id.org/nfex#>
+        PREFIX xsd: <http://www.w3.org/2001/XMLSchema#>
+        DELETE {{ nfex:sessionConditionConfidence nfex:value ?c }}
+        INSERT {{ nfex:sessionConditionConfidence nfex:value "{confidence}"^^xsd:double }}
+        WHERE {{ nfex:sessionConditionConfidence nfex:value ?c }}""", author="test")
+
+
+def session_decisions(advisor: Advisor, images: list[np.ndarray], context: dict[str, str]) -> list[int]:
+    """The frames of a session stream that were decided (not reused)."""
+    out, state = [], None
+    for i, image in enumerate(images):
+        sel = advisor.select(context, image, state, session=True)
+        state = sel.state
+        if sel.reused == 0:
+            out.append(i)
+    return out
+
+
+def test_an_estimate_inside_the_dead_band_keeps_a_session_decision(kg: KnowledgeGraph, data_dir: Path) -> None:
+    """90 consecutive KITTI 00 frames of a car session: the texture and reflectance estimates flip at their thresholds
+    with confidences near 0.5; inside the dead band (nfex:sessionConditionConfidence, shipped 0.6) they keep the
+    decision, so the session re-decides only on a firm change that holds and every nfex:sessionDecisionFrames."""
+    assert ReuseTerms.load(kg).firm == 0.6  # shipped: rules/pruning/thresholds.ttl
+    images = [cv2.imread(str(p), cv2.IMREAD_GRAYSCALE) for p in sorted((data_dir / FRAMES).glob("*.png"))[:90]]
+    banded = session_decisions(Advisor(kg, neural="symbolic"), images, {"agent": "car"})
+    dead_band(kg, 0.0)
+    assert ReuseTerms.load(kg).firm == 0.0
+    every = session_decisions(Advisor(kg, neural="symbolic"), images, {"agent": "car"})
+    # frame 16: an estimate beyond its band for two frames; 46 and 76: the decision served 30 frames
+    assert banded == [0, 16, 46, 76, 78]
+    assert every == [0, 2, 8, 10, 12, 21, 27, 57, 60, 82, 86, 88]  # texture high ⇄ medium at confidence ≈ 0.5

@@ -2,8 +2,9 @@
 
 For fixed real frames and contexts the number of extractions (and pixels) per select is asserted, so a change
 that makes the frame path extract more fails here instead of waiting for a bench run: a context whose α* the
-bounds settle (advisor/bounds.py) extracts nothing; a budgeted select extracts at most one candidate where one
-extraction settles α*; every candidate is listed, with the reason it was not extracted.
+bounds settle (advisor/bounds.py) extracts nothing — over the sound [0, 1] per metric, or within the metric ranges
+measured on KITTI 00 (advisor/ranges.py) —; a drone's two unmeasured candidates are both extracted; every candidate
+is listed, with the reason it was not extracted.
 """
 from __future__ import annotations
 
@@ -59,26 +60,77 @@ def test_a_car_whose_preference_settles_the_choice_extracts_nothing(shipped_kg: 
     assert all(c.keypoints is None and c.evidence.not_scored for c in sel.candidates)  # type: ignore[attr-defined]
 
 
-def test_a_car_extracts_what_can_change_the_answer(shipped_kg: KnowledgeGraph, data_dir: Path) -> None:
-    """Without the preference a car's choice needs SIFT's metrics, and at most one rival's — not six extractions."""
+def without_ranges(kg: KnowledgeGraph) -> None:
+    """The graph without its measured metric ranges: the bounds are the sound [0, 1] per metric alone."""
+    kg.update("PREFIX nfex: <https://w3id.org/nfex#> DELETE WHERE { ?r a nfex:MetricRange ; ?p ?o }", author="test")
+
+
+@pytest.mark.parametrize("frame", [0, 40, 120])
+def test_a_car_settled_by_the_measured_ranges_extracts_nothing(shipped_kg: KnowledgeGraph, data_dir: Path, frame: int) -> None:
+    """A car's SIFT leads XFEAT by its measured accuracy; within the metric ranges measured on KITTI 00
+    (ontology/measurements/metric-ranges.ttl) no other candidate can reach SIFT's least score: nothing is extracted,
+    and the answer says the bounds rest on the measured ranges. Exhaustive scoring picks the same α*."""
+    advisor = Advisor(shipped_kg, neural="symbolic")
+    sel, n, pixels = counted(advisor, {"agent": "car"}, kitti(data_dir, frame))
+    assert (n, pixels) == (0, 0) and sel.extractor == "SIFT" and sel.scoring.outcome == "settled"  # type: ignore[attr-defined]
+    assert "ranges measured on KITTI 00" in sel.candidates[0].evidence.not_scored  # type: ignore[attr-defined]
+    exhaustive = Advisor(shipped_kg, neural="symbolic", exhaustive_scoring=True).select({"agent": "car"}, kitti(data_dir, frame))
+    assert exhaustive.extractor == "SIFT"
+
+
+def test_a_car_extracts_what_can_change_the_answer_over_the_sound_bounds(shipped_kg: KnowledgeGraph, data_dir: Path) -> None:
+    """Without the measured ranges a car's choice needs SIFT's metrics, and at most one rival's — not six extractions."""
+    without_ranges(shipped_kg)
     advisor = Advisor(shipped_kg, neural="symbolic")
     sel, n, pixels = counted(advisor, {"agent": "car"}, kitti(data_dir))
     assert sel.extractor == "SIFT" and sel.scoring.outcome == "scored"  # type: ignore[attr-defined]
     assert 1 <= n <= 2 and pixels == n * sel.state.image.size  # type: ignore[attr-defined]
+    assert "whatever their metrics" in sel.scoring.reason  # type: ignore[attr-defined]
+
+
+def test_an_evaluation_holding_out_kitti_00_does_not_use_its_ranges(shipped_kg: KnowledgeGraph, data_dir: Path) -> None:
+    """The ranges were measured on KITTI 00: an advisor whose evidence scope holds KITTI 00 out bounds over [0, 1]."""
+    from nfex_core.kg.rdf.identity import sequence_iri
+    from nfex_core.kg.scope import EvidenceScope
+
+    scope = EvidenceScope(exclude_sequences=frozenset({str(sequence_iri("kitti", "00"))}))
+    advisor = Advisor(shipped_kg, neural="symbolic", scope=scope)
+    assert not advisor.snapshot().ranges and Advisor(shipped_kg, neural="symbolic").snapshot().ranges
+    sel, n, _ = counted(advisor, {"agent": "car", "budget_ms": 20}, kitti(data_dir))
+    assert n >= 1 and "whatever" in (sel.scoring.reason + str(sel.candidates[0].evidence.not_scored))  # type: ignore[attr-defined]
+
+
+def test_ranges_a_frame_contradicts_fall_back_to_the_sound_bounds(shipped_kg: KnowledgeGraph, data_dir: Path) -> None:
+    """A range the frame's extracted metrics fall outside of is not evidence for that frame: the request goes on
+    over [0, 1] per metric and gives exhaustive scoring's α*."""
+    shipped_kg.update("""PREFIX nfex: <https://w3id.org/nfex#>
+        PREFIX xsd: <http://www.w3.org/2001/XMLSchema#>
+        DELETE { ?r nfex:rangeLow ?lo ; nfex:rangeHigh ?hi }
+        INSERT { ?r nfex:rangeLow "0.999"^^xsd:double ; nfex:rangeHigh "1.0"^^xsd:double }
+        WHERE { ?r nfex:rangeExtractor nfex:ORB ; nfex:rangeMetric nfex:texturedness ; nfex:rangeLow ?lo ; nfex:rangeHigh ?hi
+                FILTER NOT EXISTS { ?r nfex:relativeTo ?y } }""", author="test")
+    context = {"agent": "drone"}
+    sel, n, _ = counted(Advisor(shipped_kg, neural="symbolic"), context, kitti(data_dir))
+    exhaustive = Advisor(shipped_kg, neural="symbolic", exhaustive_scoring=True).select(context, kitti(data_dir))
+    assert n == 2 and sel.extractor == exhaustive.extractor and "whatever their metrics" in sel.scoring.reason  # type: ignore[attr-defined]
 
 
 @pytest.mark.parametrize("frame", [0, 40, 120])
-def test_a_budgeted_car_extracts_one_candidate(shipped_kg: KnowledgeGraph, data_dir: Path, frame: int) -> None:
-    """Under 20 ms a car keeps ORB and ORB_GRID; ORB (cheaper, less accurate) is extracted and its score settles
-    ORB_GRID, which is not extracted."""
+def test_a_budgeted_car_extracts_nothing(shipped_kg: KnowledgeGraph, data_dir: Path, frame: int) -> None:
+    """Under 20 ms a car keeps ORB and ORB_GRID; ORB_GRID's measured accuracy puts its least score, within the
+    measured ranges, above ORB's most: nothing is extracted (over the sound bounds ORB is, and settles ORB_GRID)."""
     advisor = Advisor(shipped_kg, neural="symbolic")
     sel, n, _ = counted(advisor, {"agent": "car", "budget_ms": 20}, kitti(data_dir, frame))
+    assert n == 0 and sel.extractor == "ORB_GRID" and sel.scoring.outcome == "settled"  # type: ignore[attr-defined]
+    without_ranges(shipped_kg)
+    sel, n, _ = counted(Advisor(shipped_kg, neural="symbolic"), {"agent": "car", "budget_ms": 20}, kitti(data_dir, frame))
     assert n <= 1 and sel.extractor == "ORB_GRID" and sel.scoring.outcome == "settled"  # type: ignore[attr-defined]
 
 
 def test_a_budgeted_drone_extracts_only_its_candidates(shipped_kg: KnowledgeGraph, data_dir: Path) -> None:
-    """A drone's 20 ms budget leaves two candidates with no measured accuracy under E: their bounds are equal, so
-    both are extracted, once each, and nothing else."""
+    """A drone's 20 ms budget leaves ORB and ORB_GRID, neither with measured accuracy under E: on KITTI 00 either
+    wins on many KITTI 00 frames, their measured paired ranges overlap more than their scores
+    differ, so both are extracted, once each, and nothing else."""
     advisor = Advisor(shipped_kg, neural="symbolic")
     sel, n, _ = counted(advisor, {"agent": "drone"}, kitti(data_dir))
     assert n == len(sel.candidates) == 2  # type: ignore[attr-defined]
