@@ -80,7 +80,7 @@ class _Pair:
     """The pair awaiting a verdict: the frame's policy, its proposals and the expected ms of each try."""
 
     policy: Policy
-    proposals: tuple[Proposal, ...]
+    proposals: tuple[Any, ...]
     costs: tuple[float, ...]
 
 
@@ -102,7 +102,7 @@ class PairJudge:
         self._frame_ms = 0.0  # the expected ms of the budgeted frame in progress (its tries so far)
 
     @property
-    def pending(self) -> tuple[Proposal, ...] | None:
+    def pending(self) -> tuple[Any, ...] | None:
         """The proposals of the pair awaiting a verdict; None when none does."""
         return self._pair.proposals if self._pair is not None else None
 
@@ -128,6 +128,11 @@ class PairJudge:
             costs = tuple(BudgetWindow.try_cost(k, c.evidence.expected_ms) for k, c in enumerate(proposals))
             self._frame_ms = costs[0] if costs and math.isfinite(costs[0]) else 0.0
         self._pair = _Pair(policy, proposals, costs)
+
+    def open(self, policy: Policy, proposals: Sequence[Any]) -> None:
+        """A pair to judge under ``policy`` with ``proposals`` to try, without a budget (the verification learner's
+        replay of the sweeps' pairs, sweeps/verification.py)."""
+        self._pair = _Pair(policy, tuple(proposals), ())
 
     def judge(self, tried: Sequence[PairEvidence], remaining: int | None = None) -> Verdict:
         """The verdict after ``tried`` (the pair's estimates so far, in proposal order); ``remaining``: proposals not
