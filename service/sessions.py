@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from nfex_core.errors import NfexError, NotFound
+from nfex_core.verification import PairJudge
 
 
 class TooManySessions(NfexError):
@@ -58,9 +59,9 @@ class Session:
     frames: int = 0
     state: Any = None
     state_bytes: int = 0
-    pending: Any = None  # the last frame's (proposals, verification policy) until its pair is judged
-    prior: Any = None  # verification.Prior: the last accepted step that translated
-    verdict_held: bool = True  # the last judged pair did not reject α*: the decision may be reused (advisor/reuse.py)
+    # the stream's verification (nfex_core.verification.PairJudge): the pair awaiting a verdict, the motion prior, the
+    # budget window, and whether the last verdict held α* (advisor/reuse.py)
+    verification: PairJudge = field(default_factory=PairJudge, repr=False)
     lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     def as_dict(self, ttl_s: float, now: float | None = None) -> dict[str, Any]:
@@ -104,8 +105,9 @@ class SessionStore:
                 del self._sessions[k]
         return len(dead)
 
-    def create(self, context: dict[str, str], client: str | None = None, owner: str = "") -> Session:
-        """A new session; 429 with ``Retry-After`` (when the first session in the way expires, if it stays idle)
+    def create(self, context: dict[str, str], client: str | None = None, owner: str = "",
+               verification: PairJudge | None = None) -> Session:
+        """A new session (``verification``: its pair judge, with the graph's budget terms); 429 with ``Retry-After`` (when the first session in the way expires, if it stays idle)
         past ``max_sessions`` in all or ``max_per_owner`` for ``owner``."""
         self.sweep()
         now = self.clock()
@@ -122,7 +124,8 @@ class SessionStore:
                     f"(DELETE /v1/sessions/{{id}}) or wait for idle ones to expire after {self.ttl_s:g} s",
                     retry_after_s=self._first_expiry(list(self._sessions.values()), now), limit=self.max_sessions,
                 )
-            s = Session(uuid.uuid4().hex, dict(context), client, now, now, owner=owner)
+            s = Session(uuid.uuid4().hex, dict(context), client, now, now, owner=owner,
+                        verification=verification or PairJudge())
             self._sessions[s.id] = s
             return s
 

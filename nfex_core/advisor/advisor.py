@@ -11,7 +11,7 @@
                     ─► scoring       F_metrics + H·A on the frame, SelectorNet masked to C(E), or the prior
                                      without a frame; ranked best first                (scoring.py, choice.py)
                     ─► verification  the policy that judges a frame pair's estimates, compiled per context, and
-                                     under a budget the escalations             (nfex_core/verification.py)
+                                     under a budget the escalations               (nfex_core/verification/)
                     ─► answer        Selection {α*, Θ′, scores, pruned + reasons, context, versions, timings}
                                                                                                (selection.py)
 

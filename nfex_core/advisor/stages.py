@@ -267,7 +267,7 @@ class VerificationIn:
 
 @dataclass(frozen=True)
 class Verification:
-    """How a frame pair's estimate is judged here (the compiled policy, nfex_core/verification.py) and, under a
+    """How a frame pair's estimate is judged here (the compiled policy, nfex_core/verification/judge.py) and, under a
     budget, what a pair may escalate to beyond the affordable candidates."""
 
     policy: Policy

@@ -12,25 +12,23 @@ baseline at once:
   would put in a config file without seeing the test sequence.
 
 ``nfex``: the advisor per frame with its stream state; where the graph's verification program is in force for the
-context, the VO tries the selection's proposals in order and the policy judges each pair (``verification``). Every method reads the graph through the
+context, the VO tries the selection's proposals in order and the stream's pair judge (``verification.PairJudge``) judges each pair. Every method reads the graph through the
 evaluation's evidence scope, which holds the evaluated sequence out (``kg.scope``).
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from nfex_slam.datasets.base import Frame
-from nfex_slam.pairs import ACCEPT, NEXT, PairEvidence, Prior, Verdict
 from nfex_slam.vo import Choice, Chooser, FrameRecord, Proposals, fixed
 
 from ..errors import BadInput
 from ..evidence import robust
 from ..kg.vocabulary.vocab import Value, Vocabulary
 from ..rules.table import RuleTable
-from ..verification import BudgetWindow, judge
+from ..verification import PairJudge
 
 if TYPE_CHECKING:
     from ..advisor import Advisor
@@ -111,24 +109,25 @@ def tuned_static(table: RuleTable) -> tuple[str, dict[str, Value], str]:
 class AdvisorChooser:
     """The nFEX advisor as a VO chooser: one selection per frame, the stream state carried along. ``session``: run
     as a service session does (advisor/reuse.py: the decision reused while its evidence — the condition estimate
-    and this loop's own verdicts — holds), so the loop equals a client's session frame for frame."""
+    and this loop's own verdicts — holds), so the loop equals a client's session frame for frame. The pairs are
+    judged by one ``verification.PairJudge``, as a session's are: its policy, motion prior and budget window."""
 
     advisor: Advisor
     context: Mapping[str, str]
     budget_ms: float | None = None
     session: bool = False
     selections: list[dict[str, Any]] = field(default_factory=list)
+    verification: PairJudge = field(init=False)
     _state: Any = None
-    _held: bool = True  # the last judged pair did not reject α* (service/routes/sessions.py keeps the same)
-    _window: BudgetWindow | None = None
-    _frame_ms: float = 0.0  # the expected ms of the frame in progress (its tries so far)
+
+    def __post_init__(self) -> None:
+        self.verification = PairJudge(self.advisor.snapshot().table.budget_terms)
 
     def __call__(self, frame: Frame, history: list[FrameRecord]) -> Choice | Proposals:
         sel = self.advisor.select({**self.context, **frame.context}, frame.image, self._state, budget_ms=self.budget_ms,
-                                  session=self.session, verdict_held=self._held)
+                                  session=self.session, verdict_held=self.verification.held)
         self._state = sel.state
-        if not sel.reused:
-            self._held = True
+        self.verification.begin(sel)
         self.selections.append({
             "frame": frame.index, "extractor": sel.extractor, "params": sel.params, "mode": sel.mode,
             "pruned": [p.extractor for p in sel.pruned],
@@ -139,33 +138,7 @@ class AdvisorChooser:
         })
         if not sel.verification.active:
             return Choice(sel.extractor, dict(sel.params))
-        policy, proposals = sel.verification, sel.proposals
-        if self.budget_ms is None:
-            return Proposals(tuple(Choice(c.extractor, dict(c.params)) for c in proposals),
-                             lambda tried, prior, remaining: self._judged(judge(policy, tried, prior, remaining)))
-        if self._window is None:
-            terms = self.advisor.snapshot().table.budget_terms
-            self._window = BudgetWindow(self.budget_ms, terms.window, terms.verification_cap)
-        elif history:
-            self._window.close(self._frame_ms)
-        window = self._window
-        costs = [BudgetWindow.try_cost(k, c.evidence.expected_ms) for k, c in enumerate(proposals)]
-        self._frame_ms = costs[0] if costs and math.isfinite(costs[0]) else 0.0
-
-        def within_budget(tried: list[PairEvidence], prior: Prior | None, remaining: int) -> Verdict:
-            v = judge(policy, tried, prior, remaining)
-            if v.action == NEXT and not window.allows(sum(costs[: len(tried)]), costs[len(tried)]):
-                v = judge(policy, tried, prior, 0)  # the next candidate does not fit: decide on what was tried
-            self._frame_ms = sum(c for c in costs[: len(tried) + (v.action == NEXT)] if math.isfinite(c))
-            return self._judged(v)
-
-        return Proposals(tuple(Choice(c.extractor, dict(c.params)) for c in proposals), within_budget)
-
-    def _judged(self, v: Verdict) -> Verdict:
-        """Keep whether a final verdict held α* (accepted on the first proposal) for the next frame's reuse."""
-        if v.action != NEXT:
-            self._held = v.action == ACCEPT and v.accepted == 0
-        return v
+        return Proposals(tuple(Choice(c.extractor, dict(c.params)) for c in sel.proposals), self.verification)
 
 
 def chooser_for(

@@ -45,9 +45,10 @@ from ..kg.storage.footprint import Anchor, Effect, Reach, anchors, change_effect
 from ..kg.storage.history import read_changes
 from ..kg.vocabulary.vocab import ExtractorSpec, Value
 from . import pruning
+from .memo import MAX_MADE
 from .persisted import CompiledCache
 from .setup import Setup
-from .table import MAX_MADE, CompileState, RuleTable, _measured_configuration
+from .table import CompileState, RuleTable, _measured_configuration
 from .types import (
     Citation,
     ContextKey,
@@ -220,7 +221,7 @@ def compile_table(kg: KnowledgeGraph, previous: RuleTable | None = None) -> Rule
                      configurations, setup.min_measurements, observed, admission, step_checks=dict(setup.step_checks),
                      carry=CompileState(setup, index, made, hits, {i: tuple(r) for i, r in ruled.items()}, plain, grouped,
                                         lines, aggregates, measured),
-                     made_before=previous.made if previous is not None and previous.min_measurements == setup.min_measurements
+                     made_before=previous.memo if previous is not None and previous.min_measurements == setup.min_measurements
                      and previous.dimensions == dims and alike else None)
 
 

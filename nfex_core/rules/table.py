@@ -3,7 +3,9 @@ the next compile carries (``CompileState``), which no request reads.
 
 ``RuleTable.decide`` is one dictionary lookup from a context to its Decision (rules/engine.py compiles the table:
 its module docstring has the composition and what a compile carries); ``RuleTable.measured`` ranks the measured
-configurations of each extractor under a context on the context's first request and keeps them. ``CompileState``
+configurations of each extractor under a context. What a context's first request derives (the decision's evidence,
+the rankings) is computed apart and published into the table's ``ContextMemo`` (rules/memo.py), never into the
+fields a request reads: those do not change once the table is published. ``CompileState``
 holds the observations read, their grouping and what was made of each group, the rules' evidence view and hits,
 the decisions before evidence and the configuration stage: ``compile_table`` of the next version takes them over
 where the change since cannot have touched them (docs/architecture.md).
@@ -26,12 +28,12 @@ from ..evidence.index import ObservationIndex
 from ..evidence.view import EvidenceView
 from ..kg.vocabulary.vocab import ExtractorSpec, Value
 from . import pruning
+from .memo import ContextMemo
 from .setup import Setup
 from .statements import CompiledStatement
 from .types import Citation, ContextKey, Decision, Evidence, MeasuredConfiguration
 
 log = logging.getLogger("nfex.rules")
-MAX_MADE = 100_000  # entries of ``RuleTable.made``: contexts asked × extractors × measured configurations
 V = TypeVar("V")
 _TAKE = threading.Lock()  # CompileState.take_view
 
@@ -81,46 +83,44 @@ class RuleTable:
     step_checks: dict[str, StepChecks] = field(default_factory=dict)  # agent → front-end checks (motion.py)
     carry: CompileState | None = field(default=None, repr=False, compare=False)  # for the next compile only
     kept_in: str | None = field(default=None, repr=False, compare=False)  # the file it was read from (persisted.py), not compiled here
-    _measured: dict[ContextKey, dict[str, tuple[MeasuredConfiguration, ...]]] = field(default_factory=dict, repr=False)
-    _evidenced: set[ContextKey] = field(default_factory=set, repr=False)
-    # per (context, extractor[, configuration]): what ``measured`` and ``decide`` made of it, with the groups it was made
-    # from; ``made_before`` is the last table's, from which what the same groups give is taken (``_made``)
-    made: dict[tuple[Hashable, ...], tuple[object, Any]] = field(default_factory=dict, repr=False, compare=False)
-    made_before: dict[tuple[Hashable, ...], tuple[object, Any]] | None = field(default=None, repr=False, compare=False)
+    # what requests derived per context (``decide``'s evidence, ``measured``'s rankings, what was made of each group);
+    # ``made_before`` is the last table's, from which what the same groups give is taken (``_made``)
+    memo: ContextMemo = field(default_factory=ContextMemo, repr=False, compare=False)
+    made_before: ContextMemo | None = field(default=None, repr=False, compare=False)
 
-    def _made(self, key: tuple[Hashable, ...], source: object, make: Callable[[], V]) -> V:
-        """``make()``, or what the last table made of the same ``source`` (the very object: a group a compile
-        carried untouched, engine._per_group) under the same ``key``. Selections after each report then cost
-        what the report changed, not a pass over every measured configuration."""
-        hit = self.made.get(key)
+    def _made(self, key: tuple[Hashable, ...], source: object, make: Callable[[], V], fresh: dict[Hashable, Any]) -> V:
+        """``make()``, or what this table or the last one made of the same ``source`` (the very object: a group a
+        compile carried untouched, engine._per_group) under the same ``key``. Selections after each report then cost
+        what the report changed, not a pass over every measured configuration. What is made goes into ``fresh``,
+        which the caller publishes once (``ContextMemo.publish``)."""
+        hit = self.memo.made.get(key)
         if hit is None and self.made_before is not None:
-            hit = self.made_before.get(key)
+            hit = self.made_before.made.get(key)
         value: V = hit[1] if hit is not None and hit[0] is source else make()
-        if len(self.made) < MAX_MADE:  # past it, what is made is not kept: memory stays bounded, answers the same
-            self.made[key] = (source, value)
+        fresh[key] = (source, value)
         return value
 
     def key(self, context: Mapping[str, str | None]) -> ContextKey:
         return tuple(context.get(d) for d in self.dimensions)
 
     def decide(self, context: Mapping[str, str | None]) -> Decision:
-        """The decision for a context (values must be checked against the vocabulary beforehand); its
-        evidence is aggregated on the context's first request and kept."""
+        """The decision for a context (values must be checked against the vocabulary beforehand), with its evidence:
+        aggregated on the context's first request into the memo, never into ``decisions``."""
         key = self.key(context)
-        decision = self.decisions[key]
-        if key not in self._evidenced:
-            known = {d: v for d, v in zip(self.dimensions, key, strict=True) if v is not None}
-            decision = replace(decision, evidence=self._evidence(key, known))
-            self.decisions[key] = decision
-            self._evidenced.add(key)
-        return decision
+        hit = self.memo.decided.get(key)
+        if hit is not None:
+            return hit
+        known = {d: v for d, v in zip(self.dimensions, key, strict=True) if v is not None}
+        fresh: dict[Hashable, Any] = {}
+        decision = replace(self.decisions[key], evidence=self._evidence(key, known, fresh))
+        return self.memo.publish(self.memo.decided, key, decision, fresh)
 
-    def _evidence(self, key: ContextKey, known: dict[str, str]) -> dict[str, Evidence]:
+    def _evidence(self, key: ContextKey, known: dict[str, str], fresh: dict[Hashable, Any]) -> dict[str, Evidence]:
         out: dict[str, Evidence] = {}
         if not known:
             return out
         for x, groups in self.observed.items():
-            found = self._made((key, x), groups, lambda groups=groups: _evidence(groups, known))  # type: ignore[misc]
+            found = self._made((key, x), groups, lambda groups=groups: _evidence(groups, known), fresh)  # type: ignore[misc]
             if found is not None:
                 out[x] = found
         return out
@@ -133,23 +133,24 @@ class RuleTable:
         ``nfex:minMeasurements`` counting windows have an ATE and none of them failed (a configuration
         that lost a window here is not a candidate for the best one)."""
         key = self.key(context)
-        found = self._measured.get(key)
-        if found is not None:
-            return found
+        hit = self.memo.measured.get(key)
+        if hit is not None:
+            return hit
         known = {d: v for d, v in zip(self.dimensions, key, strict=True) if v is not None}
-        found = {}
+        found: dict[str, tuple[MeasuredConfiguration, ...]] = {}
+        fresh: dict[Hashable, Any] = {}
         for x, configurations in self.configurations.items():
             ranked = []
             for iri, found_here in configurations.items():
                 params, observations = found_here
                 one = self._made((key, x, iri), found_here,
-                                 lambda iri=iri, p=params, obs=observations: _ranked(iri, p, obs, known, self.min_measurements))  # type: ignore[misc]
+                                 lambda iri=iri, p=params, obs=observations: _ranked(iri, p, obs, known, self.min_measurements),  # type: ignore[misc]
+                                 fresh)
                 if one is not None:
                     ranked.append(one)
             if ranked:
                 found[x] = tuple(sorted(ranked, key=lambda c: (c.ate, c.iri)))
-        self._measured[key] = found
-        return found
+        return self.memo.publish(self.memo.measured, key, found, fresh)
 
 
 def _evidence(groups: Mapping[frozenset[tuple[str, str]], Sequence[Observation]], known: dict[str, str]) -> Evidence | None:

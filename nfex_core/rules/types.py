@@ -13,7 +13,7 @@ advisor, the budget, the context shapes, the neural step and the fitness functio
 - ``Evidence`` / ``MeasuredConfiguration``: what the graph measured for an extractor, or one of its
   configurations, under a context's known conditions;
 - ``PairTest`` / ``AcceptRule`` / ``Policy``: the verification of frame pairs in force in a context,
-  compiled from ``accept pair if …`` and ``escalate at most N`` statements (verification.py judges);
+  compiled from ``accept pair if …`` and ``escalate at most N`` statements (verification/judge.py judges);
 - ``Decision``: everything the table holds for one context.
 """
 from __future__ import annotations
@@ -32,7 +32,7 @@ from ..kg.vocabulary.vocab import ExtractorSpec, ParameterSpec, Value
 
 ContextKey = tuple[str | None, ...]
 
-# what an ``accept pair if …`` statement may test (verification.py computes them)
+# what an ``accept pair if …`` statement may test (verification/judge.py computes them)
 PAIR_SIGNALS: dict[str, str] = {
     "inliers": "RANSAC inliers of the essential matrix",
     "matches": "ratio-test matches",
@@ -248,4 +248,4 @@ class Decision:
     bonuses: Mapping[str, Factor]  # extractor → preference bonus
     evidence: Mapping[str, Evidence] = field(default_factory=dict)
     shapes: tuple[CompiledShape, ...] = ()  # context shapes whose gate holds here (rules/shape_check.py)
-    verification: Policy = NO_POLICY  # how a frame pair's estimate is judged here (verification.py)
+    verification: Policy = NO_POLICY  # how a frame pair's estimate is judged here (verification/judge.py)

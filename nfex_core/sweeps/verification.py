@@ -47,14 +47,17 @@ from pathlib import Path
 
 import numpy as np
 from nfex_slam.motion import angle_between, rotation_deg
-from nfex_slam.pairs import STILL_PX
+from nfex_slam.pairs import ACCEPT, NEXT, STILL_PX, PairEvidence
 
-from ..verification import LOST_PAIR_DEG
+from ..rules.types import AcceptRule, Citation, PairTest, Policy
+from ..verification import LOST_PAIR_DEG, PairJudge
 from .cells import BAD_PAIR_DEG
 from .table import read_pairs
 
 QUANTILES = np.arange(0.1, 0.91, 0.1)
 MAX_EXTRA_FALLBACK = 0.1  # a policy may coast on at most this share of pairs beyond those nothing survives
+_FITTED = Citation("urn:nfex:fitting", "a candidate rule of the fit", "", "verify")
+_NOTHING = AcceptRule((PairTest("rotation", "<", 0.0),), (), _FITTED)  # an angle is never negative: accepts nothing
 
 
 @dataclass(frozen=True)
@@ -81,6 +84,17 @@ class _Pair:
     parallax: float
     signals: dict[str, float]
     partners: list[_Pair] = field(default_factory=list)  # the estimates the loop escalates to, in order
+    evidence: PairEvidence | None = None  # the estimate as the judge sees it (``_evidence``)
+
+
+@dataclass
+class _Known(PairEvidence):
+    """An estimate whose R is already known (the table's rotation vector through Rodrigues, as ``matrix`` makes it)."""
+
+    known: np.ndarray | None = None
+
+    def matrix(self) -> np.ndarray:
+        return self.known if self.known is not None else super().matrix()
 
 
 def _rotation(rx: str, ry: str, rz: str) -> np.ndarray:
@@ -139,7 +153,9 @@ def read(pair_tables: Sequence[Path], tables: Sequence[Path], escalations: int =
             condition = f"{r['before']}→{r['after']}"  # the images' conditions: equal keys are equal images
             key = (r["dataset"], r["sequence"], condition, r["severity"], r["seed"], r["window_start"], r["frame"])
             truth = _truth(r)
-            p = _Pair(key, r["extractor"], cell, int(r["frame"]), est_err, prior is not None, truth, (cell, r["window_start"]), R if estimated else None, d if estimated else None, parallax, sig)
+            p = _Pair(key, r["extractor"], cell, int(r["frame"]), est_err, prior is not None, truth, (cell, r["window_start"]),
+                      R if estimated else None, d if estimated else None, parallax, sig)
+            p.evidence = _evidence(p, (float(r["rx"]), float(r["ry"]), float(r["rz"])) if estimated else None)
             pairs.append((agents.get(cell, ""), p))
             if math.isfinite(est_err) and est_err <= 2 * BAD_PAIR_DEG and R is not None and d is not None and parallax >= STILL_PX:
                 prior = (R, d)  # what a verifier should have accepted (module docstring)
@@ -168,6 +184,14 @@ def read(pair_tables: Sequence[Path], tables: Sequence[Path], escalations: int =
     return dict(out)
 
 
+def _evidence(p: _Pair, rotation: tuple[float, float, float] | None) -> PairEvidence:
+    """The estimate as the judge sees it: lost where it cannot be accepted (``_usable``)."""
+    if _usable(p) and rotation is not None and p.R is not None and p.d is not None:
+        return _Known(p.extractor, rotation=rotation, direction=(float(p.d[0]), float(p.d[1]), float(p.d[2])),
+                      parallax_px=p.parallax, known=p.R)
+    return _Known(p.extractor, parallax_px=p.parallax, rejected="lost")
+
+
 def _grid(values: Sequence[float]) -> list[float]:
     return sorted({round(float(q), 2) for q in np.quantile(values, QUANTILES)}) if values else []
 
@@ -181,50 +205,53 @@ def _usable(p: _Pair) -> bool:
     return p.R is not None and p.d is not None and math.isfinite(p.est_err)
 
 
+def policy(motion: tuple[float, float] | None, agreement: float | None, escalations: int) -> Policy:
+    """The policy a combination stands for: ``accept pair if heading_change <= a and rotation_change <= b`` (``motion``),
+    ``accept pair if agreement <= c`` (``agreement``), ``escalate at most`` ``escalations``. Neither: always fall back
+    to the motion prior (one try, accepted only where there is no prior yet, as the loop does)."""
+    rules = []
+    if motion is not None:
+        rules.append(AcceptRule((PairTest("heading_change", "<=", motion[0]), PairTest("rotation_change", "<=", motion[1])),
+                                (), _FITTED))
+    if agreement is not None:
+        rules.append(AcceptRule((PairTest("agreement", "<=", agreement),), (), _FITTED))
+    return Policy(tuple(rules), escalations) if rules else Policy((_NOTHING,), 0)
+
+
 def simulate(pairs: Sequence[_Pair], motion: tuple[float, float] | None, agreement: float | None) -> tuple[float, int, int]:
-    """Run the policy over each configuration's consecutive pairs as the loop would, and return (mean pair error,
-    accepted, pairs). Per pair the loop tries the configuration's own estimate, then its ``partners`` (the other
-    extractors' estimates of the same pair, best first), and after each try accepts the first tried estimate that
-    passes the motion rule or agrees with another tried one (``verification.judge``); with none, it repeats the
-    motion prior — the last *accepted* step that translated, which a fallback keeps — or, without a prior, takes
-    the first usable estimate. ``motion``: the (heading_change, rotation_change) bounds (None: no such rule);
-    ``agreement``: the agreement bound (None: no such rule)."""
+    """Run the policy (``policy``) over each configuration's consecutive pairs as the loop would, with the loop's pair
+    judge (``verification.PairJudge``: one per run, which keeps the motion prior — the last *accepted* step that
+    translated — across a fallback), and return (mean pair error, accepted, pairs). Per pair it tries the
+    configuration's own estimate, then its ``partners`` (the other extractors' estimates of the same pair, best
+    first), until the judge accepts one or falls back; a fallback costs repeating the prior (``LOST_PAIR_DEG``
+    without one). ``motion``: the (heading_change, rotation_change) bounds (None: no such rule); ``agreement``: the
+    agreement bound (None: no such rule)."""
     runs: dict[tuple[str, str], list[_Pair]] = defaultdict(list)
     for p in pairs:
         runs[p.run].append(p)
+    rule = policy(motion, agreement, max((len(p.partners) for p in pairs), default=0))
     total, accepted, n = 0.0, 0, 0
     for run in runs.values():
         run.sort(key=lambda p: p.frame)
-        prior: tuple[np.ndarray, np.ndarray] | None = None
-        heading: np.ndarray | None = None
+        judge = PairJudge()
         for p in run:
             if p.truth is None:
                 continue
-            tried: list[_Pair] = []
-            chosen: _Pair | None = None
-            for c in (p, *p.partners):
-                tried.append(c)
-                for i, e in enumerate(tried):
-                    if not _usable(e) or e.R is None or e.d is None:
-                        continue
-                    ok = (motion is not None and prior is not None and heading is not None
-                          and angle_between(heading, e.d) <= motion[0] and rotation_deg(prior[0].T @ e.R) <= motion[1])
-                    if not ok and agreement is not None:
-                        ok = any(_disagreement(e, o) <= agreement for j, o in enumerate(tried) if j != i and _usable(o))
-                    if ok:
-                        chosen = e
-                        break
-                if chosen is not None or (motion is None and agreement is None) and prior is None:
+            candidates = (p, *p.partners)
+            judge.open(rule, candidates)
+            tried: list[PairEvidence] = []
+            for c in candidates:
+                assert c.evidence is not None
+                tried.append(c.evidence)
+                v = judge.judge(tried)
+                if v.action != NEXT:
                     break
-            if chosen is None and prior is None:
-                chosen = next((e for e in tried if _usable(e)), None)
-            if chosen is not None:
-                total += chosen.est_err
+            if v.action == ACCEPT and v.accepted is not None:
+                total += candidates[v.accepted].est_err
                 accepted += 1
-                if chosen.parallax >= STILL_PX and chosen.R is not None and chosen.d is not None:
-                    prior, heading = (chosen.R, chosen.d), chosen.R @ chosen.d
             else:
-                total += _coasting(p.truth, prior) if prior is not None else LOST_PAIR_DEG
+                prior = judge.prior
+                total += _coasting(p.truth, (prior.R, prior.direction)) if prior is not None else LOST_PAIR_DEG
             n += 1
     return (total / n if n else math.nan), accepted, n
 
@@ -269,7 +296,7 @@ def learn(pair_tables: Sequence[Path], tables: Sequence[Path], *, min_pairs: int
         groups.append((None, everyone))  # the agents with too few pairs of their own get the pooled fit
     sources = ", ".join(sorted({p.name for p in pair_tables}))
     lines = [
-        "# Verification of frame pairs (docs/dsl.md, \"Verification\"; nfex_core/verification.py).",
+        "# Verification of frame pairs (docs/dsl.md, \"Verification\"; nfex_core/verification/judge.py).",
         "# Generated by `nfex program learn-verification` from the sweeps' pair tables — do not edit by hand:",
         f"# {sources}. Thresholds minimise the mean pair error (rotation + direction, °) of accepting or repeating the motion prior.",
         "",

@@ -1,5 +1,5 @@
 """Frame streams: a session remembers the previous frame so temporal metrics and motion work, and judges each
-frame pair's estimates (the verification stage: the frame's proposals, then ``/verdict``)."""
+frame pair's estimates with its pair judge (the verification stage: the frame's proposals, then ``/verdict``)."""
 from __future__ import annotations
 
 from typing import Any
@@ -7,10 +7,10 @@ from typing import Any
 import numpy as np
 from fastapi import APIRouter, Request, Response
 from fastapi.concurrency import run_in_threadpool
-from nfex_slam.pairs import ACCEPT, NEXT, STILL_PX, PairEvidence, Prior
+from nfex_slam.pairs import NEXT, PairEvidence
 
-from nfex_core.errors import BadInput, NfexError
-from nfex_core.verification import judge
+from nfex_core.errors import BadInput
+from nfex_core.verification import NoPairToJudge, PairJudge
 
 from ..deps import AdvisorDep, SessionsDep, SettingsDep
 from ..frames import read_select
@@ -25,7 +25,7 @@ router = APIRouter(prefix="/v1/sessions", tags=["sessions"])
 def create_session(body: SessionCreate, sessions: SessionsDep, advisor: AdvisorDep, request: Request) -> dict[str, Any]:
     context = advisor.snapshot().vocab.check_context(body.context)
     owner = _owner(request)
-    s = sessions.create(context, body.client, owner)
+    s = sessions.create(context, body.client, owner, PairJudge(advisor.snapshot().table.budget_terms))
     return s.as_dict(sessions.ttl_s, sessions.clock())
 
 
@@ -58,12 +58,10 @@ async def post_frame(session_id: str, request: Request, sessions: SessionsDep, a
 
     def work() -> dict[str, Any]:
         with session.lock:  # frames of one stream in order: each needs the state the last one left
-            selection = advisor.select(context, frame, session.state, session=True, verdict_held=session.verdict_held)
+            selection = advisor.select(context, frame, session.state, session=True, verdict_held=session.verification.held)
             temporal = session.state is not None
             sessions.keep(session, selection.state)
-            session.pending = (selection.proposals, selection.verification)
-            if not selection.reused:  # a new decision: no verdict has judged it yet
-                session.verdict_held = True
+            session.verification.begin(selection)
             out = selection.as_dict()
             out["session"] = {"id": session.id, "frame": session.frames, "temporal": temporal,
                               "reused": selection.reused > 0}
@@ -80,28 +78,21 @@ async def post_frame(session_id: str, request: Request, sessions: SessionsDep, a
     responses={**PROBLEM_RESPONSES, **problems(409)},
 )
 def post_verdict(session_id: str, body: VerdictRequest, sessions: SessionsDep) -> dict[str, Any]:
-    """The verification stage over HTTP (nfex_core/verification.py; docs/service.md, "Verified selection")."""
+    """The verification stage over HTTP: the session's pair judge (nfex_core/verification/; docs/service.md,
+    "Verified selection")."""
     session = sessions.get(session_id)
     with session.lock:
-        if session.pending is None:
+        pending = session.verification.pending
+        if pending is None:
             raise NoPairToJudge(f"session {session_id} has no frame pair awaiting a verdict: POST the next frame to "
                                 f"/v1/sessions/{session_id}/frames first (a pair is judged once)")
-        proposals, policy = session.pending
         tried = [_evidence(i, t) for i, t in enumerate(body.tried)]
-        verdict = judge(policy, tried, session.prior, max(0, len(proposals) - len(tried)))
+        verdict = session.verification.judge(tried)
         out = verdict.as_dict()
         out["tries"] = len(tried)
         if verdict.action == NEXT:
-            nxt = proposals[len(tried)]
+            nxt = pending[len(tried)]
             out["next"] = {"extractor": nxt.extractor, "params": nxt.params}
-            return out
-        session.pending = None
-        # the decision stands while its first proposal is accepted; an escalation or a fallback re-decides the next frame
-        session.verdict_held = verdict.action == ACCEPT and verdict.accepted == 0
-        if verdict.action == ACCEPT and verdict.accepted is not None:
-            e = tried[verdict.accepted]
-            if e.parallax_px >= STILL_PX:
-                session.prior = Prior(e.matrix(), np.asarray(e.direction, dtype=float))
         return out
 
 
@@ -121,13 +112,6 @@ def _evidence(i: int, t: TriedCandidate) -> PairEvidence:
         raise BadInput(f"tried[{i}]: t must be a finite, non-zero vector")
     return PairEvidence.of(t.extractor, t.params, R, v / n, keypoints=t.keypoints, matches=t.matches, inliers=t.inliers,
                            parallax_px=t.parallax_px, extraction_ms=t.extraction_ms, rejected=t.rejected)
-
-
-class NoPairToJudge(NfexError):
-    status = 409
-    type = "no-pair-to-judge"
-    title = "No frame pair awaits a verdict"
-    exit_code = 2
 
 
 @router.delete("/{session_id}", status_code=204, summary="Close a stream", responses=PROBLEM_RESPONSES)

@@ -1,9 +1,10 @@
 """A frame pair as a verifier sees it: what each candidate's estimate showed, the motion prior, and the verdict.
 
 The VO (``nfex_slam.vo``) tries a frame's proposals in order; after each try a judge — the service's
-``POST /v1/sessions/{id}/verdict``, or ``nfex_core.verification.judge`` in process — answers a Verdict:
-accept a try, try the next proposal, or fall back to the motion prior. These types are the VO's side of that
-conversation; the policy and the signals are the service's (nfex_core/verification.py has the formulas).
+``POST /v1/sessions/{id}/verdict``, or a ``nfex_core.verification.PairJudge`` in process — answers a Verdict:
+accept a try, try the next proposal, or fall back to the motion prior, which the judge keeps. These types are the
+VO's side of that conversation; the policy and the signals are the service's (nfex_core/verification/judge.py has
+the formulas).
 """
 from __future__ import annotations
 

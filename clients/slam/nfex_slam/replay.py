@@ -96,8 +96,9 @@ class ServiceChooser:
         proposals = tuple(Choice(p["extractor"], dict(p["params"])) for p in verification["proposals"])
         return Proposals(proposals, self.judge)
 
-    def judge(self, tried: list[PairEvidence], prior: Any, remaining: int) -> Verdict:
-        """The pair's verdict from the service (POST /v1/sessions/{id}/verdict), for the VO."""
+    def judge(self, tried: list[PairEvidence], remaining: int) -> Verdict:
+        """The pair's verdict from the service (POST /v1/sessions/{id}/verdict, which keeps the motion prior), for
+        the VO."""
         out = self.client.verdict(self.session_id, [_tried(e) for e in tried])
         return Verdict(out["action"], out.get("accepted"), None, out["reason"])
 

@@ -56,7 +56,7 @@ class Atom:
 
 @dataclass(frozen=True)
 class Test:
-    """``signal comparator bound``: one test of an ``accept pair if …`` statement (verification.py)."""
+    """``signal comparator bound``: one test of an ``accept pair if …`` statement (verification/judge.py)."""
 
     signal: str
     comparator: str

@@ -120,7 +120,7 @@ def test_a_verified_pair_escalates_to_the_next_proposal_and_counts_every_try(kit
     seq = _copy(kitti00, 5)
     enough = Policy((AcceptRule((PairTest("inliers", ">=", 30),), (), Citation("urn:a", "accept pair if inliers >= 30", "", "accept")),), 1)
     starved = Choice("ORB", {"nfeatures": 12})  # too few keypoints to match: the pair is lost
-    both = Proposals((starved, Choice("SIFT")), lambda tried, prior, left: judge(enough, tried, prior, left))
+    both = Proposals((starved, Choice("SIFT")), lambda tried, left: judge(enough, tried, None, left))
     res = run_vo(seq, lambda f, h: both, registry=registry)
     pairs = res.frames[1:]
     assert all(f.tries == 2 and f.extractor == "SIFT" and not f.lost for f in pairs)
@@ -133,7 +133,7 @@ def test_a_verified_pair_escalates_to_the_next_proposal_and_counts_every_try(kit
     alone = run_vo(seq, fixed("SIFT"), registry=registry)
     assert np.allclose(res.poses, alone.poses)  # SIFT's estimates, taken every time
 
-    only = Proposals((starved,), lambda tried, prior, left: judge(enough, tried, prior, left))
+    only = Proposals((starved,), lambda tried, left: judge(enough, tried, None, left))
     fell = run_vo(seq, lambda f, h: only, registry=registry)
     assert fell.lost == [1, 2, 3, 4]
     assert all(f.reason.startswith("verify: ") and "motion prior" in f.reason for f in fell.frames[1:])

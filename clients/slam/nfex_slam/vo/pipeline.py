@@ -48,8 +48,8 @@ import numpy as np
 
 from ..datasets.base import Frame, Sequence
 from ..features import Features
-from ..motion import NO_CHECKS, StepChecks, motion_direction, pair_errors, relative_truth
-from ..pairs import ACCEPT, NEXT, STILL_PX, PairEvidence, Prior, Verdict
+from ..motion import NO_CHECKS, StepChecks, pair_errors, relative_truth
+from ..pairs import ACCEPT, NEXT, STILL_PX, PairEvidence, Verdict
 from .tracking import MapTracker
 from .twoview import ScaleChain, Try, try_pair
 
@@ -164,11 +164,12 @@ class VOResult:
 
 @dataclass(frozen=True)
 class Proposals:
-    """A chooser's answer when the pair is verified: the candidates in the order to try them, and the judge
-    (``verification.judge`` bound to the context's policy) that decides after each try."""
+    """A chooser's answer when the pair is verified: the candidates in the order to try them, and the judge that
+    decides after each try, given the estimates tried so far and how many proposals remain — the stream's
+    (``nfex_core.verification.PairJudge``, or a session's ``/verdict``), which keeps the motion prior it judges by."""
 
     choices: tuple[Choice, ...]
-    judge: Callable[[list[PairEvidence], Prior | None, int], Verdict]
+    judge: Callable[[list[PairEvidence], int], Verdict]
 
 
 Chooser = Callable[[Frame, list[FrameRecord]], "Choice | Proposals | tuple[str, Mapping[str, Any]]"]
@@ -204,7 +205,7 @@ def run_vo(
     records: list[FrameRecord] = []
     stamps: list[float] = []
     velocity = np.eye(4)  # last good T_k-1←k (camera k in camera k-1)
-    moving: tuple[np.ndarray, np.ndarray] | None = None  # the last accepted step that translated (R, t)
+    moving: tuple[np.ndarray, np.ndarray] | None = None  # the last accepted step that translated (R, t): the front-end checks
     scale = ScaleChain(p, K)
     tracker = MapTracker(sequence, p, registry) if p.scale == "map" else None
     prev: tuple[Frame, Choice, dict[str, Features]] | None = None  # the last frame, its taken choice, every tried one's features
@@ -230,7 +231,6 @@ def run_vo(
             pose = np.eye(4)
         else:
             prev_frame, prev_choice, prev_cache = prev
-            prior = Prior(moving[0], motion_direction(*moving)) if moving is not None else None
             for n, choice in enumerate(choices):
                 t = try_pair(choice, frame, prev_frame, prev_cache, sequence, K, p, registry, measure)
                 if t.step is not None:
@@ -240,7 +240,7 @@ def run_vo(
                 evidence.append(t.evidence())
                 if judge is None:
                     break
-                verdict = judge(evidence, prior, len(choices) - n - 1)
+                verdict = judge(evidence, len(choices) - n - 1)
                 if verdict.action != NEXT:
                     break
             if judge is None:

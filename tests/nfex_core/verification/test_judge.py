@@ -1,4 +1,4 @@
-"""Verification of frame pairs (nfex_core/verification.py): signals, accept, escalate, fall back — on synthetic pairs."""
+"""Verification of frame pairs (nfex_core/verification/judge.py): signals, accept, escalate, fall back — on synthetic pairs."""
 from __future__ import annotations
 
 import math

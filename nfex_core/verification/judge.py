@@ -35,15 +35,13 @@ that passed the front-end checks — the behaviour of every method without verif
 """
 from __future__ import annotations
 
-import math
-from collections import deque
 from collections.abc import Sequence
 
 import numpy as np
 from nfex_slam.motion import angle_between, rotation_deg
 from nfex_slam.pairs import ACCEPT, FALLBACK, NEXT, PairEvidence, Prior, Verdict
 
-from .rules.types import Policy
+from ..rules.types import Policy
 
 # the pose error (rotation + translation direction, degrees) a lost pair is charged where pair errors are summed or
 # capped: the hindsight oracles (evaluation/oracle.py) and the verification learner (sweeps/verification.py)
@@ -94,32 +92,3 @@ def judge(policy: Policy, tried: Sequence[PairEvidence], prior: Prior | None, re
     why = f"no accept statement held for the {len(tried)} candidate(s) tried"
     return Verdict(FALLBACK, None, policy.escalation_citation, why + "; the motion prior stands in", shown)
 
-
-class BudgetWindow:
-    """A budget B as a mean over W frames with a per-frame cap of C·B (``nfex:budgetWindow``,
-    ``nfex:verificationCap``), judged like every budget by the cost model's expected ms (so a run's choices do not
-    depend on how busy the machine is): a pair may try a further candidate when the frame's expected ms so far
-    plus that try's stays within C·B and the mean over the last W − 1 frames and this one within B. A try other
-    than the first costs twice its expected ms (the previous frame must be extracted with it too)."""
-
-    def __init__(self, budget_ms: float, window: int, cap: float) -> None:
-        self.budget_ms, self.window, self.cap = budget_ms, max(1, window), max(1.0, cap)
-        self.spent: deque[float] = deque(maxlen=self.window - 1)
-
-    @staticmethod
-    def try_cost(k: int, expected_ms: float | None) -> float:
-        """The expected ms of the k-th try (from 0) of a pair."""
-        if expected_ms is None or not math.isfinite(expected_ms):
-            return math.inf
-        return expected_ms if k == 0 else 2.0 * expected_ms
-
-    def allows(self, so_far_ms: float, try_ms: float) -> bool:
-        frame = so_far_ms + try_ms
-        if not math.isfinite(frame) or frame > self.cap * self.budget_ms:
-            return False
-        return (sum(self.spent) + frame) / (len(self.spent) + 1) <= self.budget_ms
-
-    def close(self, frame_ms: float) -> None:
-        """A frame is done: it spent ``frame_ms`` (expected)."""
-        if self.spent.maxlen:
-            self.spent.append(frame_ms)
