@@ -101,7 +101,7 @@ class Scorer:
     decides, every candidate's score is bounded from both sides before anything is extracted (bounds.py: the
     bonus, H·A and the range of each metric it will have); a candidate is extracted only while the leader's low
     bound is below another's high bound, one at a time, the one whose extraction narrows that gap most per
-    expected ms; the graph's measured metric ranges narrow those bounds for a single answer while they hold on the
+    expected ms; the graph's measured metric ranges narrow those bounds while they hold on the
     frame (ranges.py). When the bounds settle α* nothing is extracted. α*, Θ′ and the order of the scored candidates
     are those of exhaustive scoring; candidates not extracted are listed with the reason (α*, when settled by
     bounds, with its least score). Where a verified pair tries the first ``top`` proposals, every candidate
@@ -136,7 +136,7 @@ class Scorer:
         """Score the candidates of ``params`` on ``image`` that can still win (class docstring); ``cost`` gives each
         candidate's expected extraction time at the scoring size (the order of extraction, bounds.py); ``top``: how
         many of the first candidates must be in exact order (a verified pair's proposals); ``ranges``: the graph's
-        measured metric ranges, which narrow the bounds of a single answer while they hold on the frame (ranges.py)."""
+        measured metric ranges, which narrow the bounds while they hold on the frame (ranges.py)."""
         from ..vision.metrics import SINGLE_FRAME, TEMPORAL, compute_metrics
 
         small = downscale(image, self.score_pixels)
@@ -218,7 +218,7 @@ class Scorer:
             break  # SelectorNet declines: F_metrics and the measured accuracy decide among all candidates
         by_name = {c.extractor: c for c in everything}
         bounds = {x: score_bounds(decision, will_have(x), vocab.metrics, x, accuracy.get(x, 0.0), weight) for x in by_name}
-        evidence = ranges if ranges and top == 1 and not exhaustive else None
+        evidence = ranges if ranges and not exhaustive else None
         held = [evidence is not None]  # whether the measured ranges held on this frame so far
 
         def narrowed(x: str, extracted: Mapping[str, Mapping[str, float]]) -> tuple[float, float] | None:
@@ -261,7 +261,7 @@ class Scorer:
                 skipped[x] = settled_reason(final, x, evidence.source if held[0] and evidence is not None else "")
             elif top > 1:
                 skipped[x] = (f"cannot be among the first {top} proposals: {top} candidates score more than its "
-                              f"most, {final[x][1]:.4f}, whatever its metrics")
+                              f"most, {final[x][1]:.4f}, {within}")
             else:
                 skipped[x] = (f"cannot overtake {alpha} ({final[alpha][0]:.4f}): its score is at most "
                               f"{final[x][1]:.4f} {within}")
