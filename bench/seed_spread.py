@@ -77,6 +77,8 @@ def cell(code: str, data: str, sequence: str, extractor: str, runs: int, frames:
         res = run_vo(mem, fixed(extractor), registry=registry, params=params)
         ate = window_errors(mem, res)[0]
         out.append({"seed": r, "ate": ate, "lost": res.lost_count, "failed": res.failed, "s": time.perf_counter() - t0})
+        print(f"{sequence} {extractor.lower()}-default seed {r}: ATE {ate if ate is None else round(ate, 3)} m, "
+              f"{res.lost_count} lost, {out[-1]['s']:.0f} s", file=sys.stderr, flush=True)
     ates = np.array([o["ate"] for o in out if o["ate"] is not None], float)
     mean = float(ates.mean()) if len(ates) else None
     std = float(ates.std()) if len(ates) else None

@@ -101,6 +101,10 @@ class VOParams:
     window_fixed: int = 1
     ba_iterations: int = 10
     search_radius_px: float = 8.0  # a map point's projection to a keypoint (ORB-SLAM: 2.5–4 px × the pyramid scale)
+    # the pairs' own rotations hold the map's heading: each two consecutive keyframes' rotation is held in the
+    # window's adjustment to what the frame pairs between them chain to, with σ_R = rotation_sigma_deg (None: the
+    # angle √5.991 px subtends at the focal length, 0.19° on KITTI; 0: no such factor)
+    rotation_sigma_deg: float | None = None
 
 
 @dataclass(frozen=True)
