@@ -42,7 +42,8 @@ class MapTracker:
         self.length = 1.0  # the last step's length in the map's scale: the essential matrix's fallback
         self.anchors: dict[int, tuple[int, np.ndarray]] = {}  # frame index → (keyframe id, T_kf⁻¹ · T_k)
         self.start: Keyframe | None = None  # the frame the map will start from, with no map yet
-        # the pairs' rotations chained from the last keyframe to the last frame placed, R_k←kf (None: a pair lost)
+        # the pairs' rotations chained from the last keyframe (with no map yet: the start) to the last frame placed,
+        # R_k←kf (None: a pair between them lost)
         self.turned: np.ndarray | None = None
         self.placed = -1  # the index of the last frame placed
 
@@ -141,6 +142,7 @@ class MapTracker:
         if self.start is None or self.start.key != key:
             feats = prev_cache[key]
             self.start = Keyframe(prev.index, prev_pose, key, feats, self._xy(feats), prev.image, keypoint_sigma(feats))
+            self.turned = step.R
         s, match_ms = self.start, 0.0
         if s.id == prev.index:
             q, t = step.matches
@@ -149,6 +151,7 @@ class MapTracker:
             pair = self._two_view(s.xy, xy, q, t)
         if len(q) < 2 * p.start_points:  # too few matches left with the start (ORB-SLAM: 100): frame k starts again
             self.start = Keyframe(frame.index, T, key, taken.feats, xy, frame.image, keypoint_sigma(taken.feats))
+            self.turned = np.eye(3)
             return T, 0.0, match_ms, "essential", 0
         if not moved or pair is None or self._parallax_points(s.xy[q[pair[2]]], xy[t[pair[2]]], pair[0], pair[1]) < p.start_points:
             return T, 0.0, match_ms, "essential", 0
@@ -161,6 +164,8 @@ class MapTracker:
         self.map.add(kf)
         self.map.associate(s, kf, q, t)
         self.length = max(float(np.linalg.norm(T[:3, 3] - prev_pose[:3, 3])), 1e-9)
+        if self.turned is not None:
+            self.map.relate(s.id, kf.id, self.turned)
         self.start = None
         self.turned = np.eye(3)
         self.anchor(frame.index, T)
