@@ -10,7 +10,9 @@ the lost pairs. ``--code`` is the checkout whose ``nfex_core`` and ``nfex_slam``
 same script measures another implementation, e.g. main's; ``--scale`` is passed to ``VOParams`` only when given
 (a checkout without the option keeps its own default). Runs of one cell share one worker process and its
 extraction cache: identical images and configuration give identical features, so only the first run extracts.
-``--jobs`` cells run at once (a process pool; each worker imports from ``--code``).
+``--jobs`` cells run at once (a process pool; each worker imports from ``--code``). Each run's line goes to stderr
+as it ends; ``--summarise LOG ...`` prints the table from such lines instead of running (a measurement stopped
+before its last cell, with each cell's runs counted).
 """
 from __future__ import annotations
 
@@ -18,6 +20,7 @@ import argparse
 import hashlib
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -86,6 +89,39 @@ def cell(code: str, data: str, sequence: str, extractor: str, runs: int, frames:
             "std": std, "spread": std / mean if mean else None, "undefined": runs - len(ates)}
 
 
+_RUN = re.compile(r"^(\S+) (\S+) seed (\d+): ATE (\S+) m, (\d+) lost")
+
+
+def summarise(logs: list[str]) -> list[dict[str, Any]]:
+    """Cells from the per-run lines ``cell`` writes to stderr (frames unknown: 0), in the order they first appear."""
+    import numpy as np
+
+    cells: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    for log in logs:
+        for line in Path(log).read_text().splitlines():
+            m = _RUN.match(line)
+            if m:
+                ate = None if m[4] == "None" else float(m[4])
+                cells.setdefault((m[1], m[2]), []).append({"seed": int(m[3]), "ate": ate, "lost": int(m[5])})
+    out = []
+    for (sequence, config), runs in cells.items():
+        ates = np.array([r["ate"] for r in runs if r["ate"] is not None], float)
+        mean = float(ates.mean()) if len(ates) else None
+        std = float(ates.std()) if len(ates) else None
+        out.append({"sequence": sequence, "config": config, "frames": 0, "runs": runs, "mean": mean, "std": std,
+                    "spread": std / mean if mean else None, "undefined": len(runs) - len(ates)})
+    return out
+
+
+def _print(cells: list[dict[str, Any]]) -> None:
+    print(f"{'sequence':9} {'config':18} {'frames':>6} {'runs':>4} {'mean ATE':>9} {'std':>7} {'spread':>7} {'lost':>5}")
+    for c in cells:
+        lost = sum(r["lost"] for r in c["runs"])
+        fmt = (lambda v: f"{v:.3f}" if v is not None else "-")  # noqa: E731
+        print(f"{c['sequence']:9} {c['config']:18} {c['frames'] or '-':>6} {len(c['runs']):4d} {fmt(c['mean']):>9} "
+              f"{fmt(c['std']):>7} {fmt(c['spread']):>7} {lost:5d}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--code", default=str(ROOT), help="checkout whose nfex_core and nfex_slam run (default: this one)")
@@ -97,7 +133,12 @@ def main() -> None:
     ap.add_argument("--scale", default=None, help="VOParams.scale (default: the checkout's own default)")
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--out", default=None, help="write the cells as JSON here")
+    ap.add_argument("--summarise", nargs="+", default=None, metavar="LOG", help="print the table from runs' stderr lines")
     args = ap.parse_args()
+    if args.summarise:
+        print(f"from {', '.join(args.summarise)}: the runs each log holds")
+        _print(summarise(args.summarise))
+        return
     code = str(Path(args.code).resolve())
     data = args.data or str(Path(os.environ.get("NFEX_DATA", ROOT.parent / "shared" / "data")) / "kitti")
     cells = [(s, x) for s in args.sequences.split(",") for x in args.configs.split(",")]
@@ -109,11 +150,7 @@ def main() -> None:
     except OSError:
         rev = ""
     print(f"code {code} ({rev}), scale {args.scale or 'default'}, {args.runs} runs per cell, no front-end checks")
-    print(f"{'sequence':9} {'config':18} {'frames':>6} {'mean ATE':>9} {'std':>7} {'spread':>7} {'lost':>5}")
-    for c in results:
-        lost = sum(r["lost"] for r in c["runs"])
-        fmt = (lambda v: f"{v:.3f}" if v is not None else "-")  # noqa: E731
-        print(f"{c['sequence']:9} {c['config']:18} {c['frames']:6d} {fmt(c['mean']):>9} {fmt(c['std']):>7} {fmt(c['spread']):>7} {lost:5d}")
+    _print(results)
     if args.out:
         Path(args.out).write_text(json.dumps({"code": code, "revision": rev, "scale": args.scale, "runs": args.runs,
                                               "cells": results}, indent=1))
