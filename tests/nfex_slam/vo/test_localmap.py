@@ -159,7 +159,7 @@ def _heading_error(res_pose: np.ndarray, truth: np.ndarray) -> float:
 def test_the_map_keeps_its_heading_through_a_turn_it_could_fit_wrongly(kitti00: Sequence, registry: ExtractorRegistry) -> None:
     """KITTI 00, ORB_GRID defaults, seed 2, frames 0–169: PnP on few map points at frame 146 turns the map 3.5° a frame
     where the pairs turn 0.2–0.4°, and the points triangulated from those poses fit the wrong heading; the pairs'
-    rotations, held between consecutive keyframes in the window's adjustment, keep it (docs/vo.md, Known limits)."""
+    rotations, held between consecutive keyframes in the window's adjustment, keep it (docs/vo.md, Per frame)."""
     seq = _window(kitti00, 170)
     res = run_vo(seq, fixed("ORB_GRID"), registry=registry, params=VOParams(seed=2, scale="map"))
     assert res.lost_count == 0

@@ -17,7 +17,7 @@ estimates chain to (each pair's essential matrix, x_k = R x_k−1 + t): a ``Betw
 relative pose is (R_j←iᵀ, the current translation) with noise σ_R on the rotation's three tangent coordinates and
 σ = 10⁶ times the pair's distance on the translation's, so that only the rotation binds,
 
-    + Σ_ij ρ_H( ‖Log(R_j←i · R_wc,jᵀ R_wc,i)‖ / σ_R )  (k = √7.815, χ² with 3 degrees of freedom at 95 %).
+    + Σ_ij ρ_H( ‖Log(R_j←i · R_wc,iᵀ R_wc,j)‖ / σ_R )  (k = √7.815, χ² with 3 degrees of freedom at 95 %).
 
 Points triangulated while the camera mostly turned can fit a wrong heading as well as the right one (their depths
 absorb it); the pairs' rotations, which need no depth, tie the window's heading to the images.
