@@ -10,7 +10,11 @@ the lost pairs. ``--code`` is the checkout whose ``nfex_core`` and ``nfex_slam``
 same script measures another implementation, e.g. main's; ``--scale`` is passed to ``VOParams`` only when given
 (a checkout without the option keeps its own default). Runs of one cell share one worker process and its
 extraction cache: identical images and configuration give identical features, so only the first run extracts.
-``--jobs`` cells run at once (a process pool; each worker imports from ``--code``).
+``--jobs`` cells run at once (a process pool; each worker imports from ``--code``). Each run's line goes to stderr
+as it ends; ``--summarise FILE ...`` prints the table from such lines, or from the JSON ``--out`` writes, instead of
+running (a measurement stopped before its last cell, with each cell's runs counted), and with ``--against JSON``
+each cell's runs beside the same seeds' runs there: that mean, in how many seeds this one's ATE is lower, and
+Wilcoxon's signed-rank test (two-sided, exact) over the seeds both have.
 """
 from __future__ import annotations
 
@@ -18,6 +22,7 @@ import argparse
 import hashlib
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -77,11 +82,68 @@ def cell(code: str, data: str, sequence: str, extractor: str, runs: int, frames:
         res = run_vo(mem, fixed(extractor), registry=registry, params=params)
         ate = window_errors(mem, res)[0]
         out.append({"seed": r, "ate": ate, "lost": res.lost_count, "failed": res.failed, "s": time.perf_counter() - t0})
+        print(f"{sequence} {extractor.lower()}-default seed {r}: ATE {ate if ate is None else round(ate, 3)} m, "
+              f"{res.lost_count} lost, {out[-1]['s']:.0f} s", file=sys.stderr, flush=True)
     ates = np.array([o["ate"] for o in out if o["ate"] is not None], float)
     mean = float(ates.mean()) if len(ates) else None
     std = float(ates.std()) if len(ates) else None
     return {"sequence": sequence, "config": f"{extractor.lower()}-default", "frames": n, "runs": out, "mean": mean,
             "std": std, "spread": std / mean if mean else None, "undefined": runs - len(ates)}
+
+
+_RUN = re.compile(r"^(\S+) (\S+) seed (\d+): ATE (\S+) m, (\d+) lost")
+
+
+def summarise(logs: list[str]) -> list[dict[str, Any]]:
+    """Cells from JSON written by ``--out``, or from the per-run lines ``cell`` writes to stderr (frames unknown: 0),
+    in the order they first appear; a seed met again in a cell (the same run in another file) counts once."""
+    import numpy as np
+
+    cells: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    frames: dict[tuple[str, str], int] = {}
+    for log in logs:
+        if log.endswith(".json"):
+            for c in json.loads(Path(log).read_text())["cells"]:
+                runs = cells.setdefault((c["sequence"], c["config"]), [])
+                runs.extend(r for r in c["runs"] if r["seed"] not in {o["seed"] for o in runs})
+                frames[(c["sequence"], c["config"])] = c["frames"]
+            continue
+        for line in Path(log).read_text().splitlines():
+            m = _RUN.match(line)
+            if m:
+                ate = None if m[4] == "None" else float(m[4])
+                runs = cells.setdefault((m[1], m[2]), [])
+                if int(m[3]) not in {o["seed"] for o in runs}:
+                    runs.append({"seed": int(m[3]), "ate": ate, "lost": int(m[5])})
+    out = []
+    for (sequence, config), runs in cells.items():
+        ates = np.array([r["ate"] for r in runs if r["ate"] is not None], float)
+        mean = float(ates.mean()) if len(ates) else None
+        std = float(ates.std()) if len(ates) else None
+        out.append({"sequence": sequence, "config": config, "frames": frames.get((sequence, config), 0), "runs": runs,
+                    "mean": mean, "std": std,
+                    "spread": std / mean if mean else None, "undefined": len(runs) - len(ates)})
+    return out
+
+
+def _print(cells: list[dict[str, Any]], against: list[dict[str, Any]] | None = None) -> None:
+    fmt = (lambda v: f"{v:.3f}" if v is not None else "-")  # noqa: E731
+    ref = {(c["sequence"], c["config"]): {r["seed"]: r["ate"] for r in c["runs"]} for c in against or []}
+    print(f"{'sequence':9} {'config':18} {'frames':>6} {'runs':>4} {'mean ATE':>9} {'std':>7} {'spread':>7} {'lost':>5}"
+          + ("   against: mean ATE, lower in, Wilcoxon p" if against is not None else ""))
+    for c in cells:
+        lost = sum(r["lost"] for r in c["runs"])
+        line = (f"{c['sequence']:9} {c['config']:18} {c['frames'] or '-':>6} {len(c['runs']):4d} {fmt(c['mean']):>9} "
+                f"{fmt(c['std']):>7} {fmt(c['spread']):>7} {lost:5d}")
+        other = ref.get((c["sequence"], c["config"]), {})
+        pairs = [(r["ate"], other[r["seed"]]) for r in c["runs"] if r["ate"] is not None and other.get(r["seed"]) is not None]
+        if against is not None and pairs:
+            from scipy.stats import wilcoxon
+
+            p = float(wilcoxon([a for a, _ in pairs], [b for _, b in pairs]).pvalue) if len(pairs) > 1 else float("nan")
+            lower = sum(a < b for a, b in pairs)
+            line += f"   {sum(b for _, b in pairs) / len(pairs):9.3f} {lower:3d} of {len(pairs):<3d} {p:.4f}"
+        print(line)
 
 
 def main() -> None:
@@ -95,7 +157,15 @@ def main() -> None:
     ap.add_argument("--scale", default=None, help="VOParams.scale (default: the checkout's own default)")
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--out", default=None, help="write the cells as JSON here")
+    ap.add_argument("--summarise", nargs="+", default=None, metavar="FILE",
+                    help="print the table from runs' stderr lines or --out JSON files")
+    ap.add_argument("--against", default=None, metavar="JSON", help="with --summarise: compare with these runs, seed by seed")
     args = ap.parse_args()
+    if args.summarise:
+        print(f"from {', '.join(args.summarise)}: the runs each file holds"
+              + (f"; against {args.against}, the same seeds" if args.against else ""))
+        _print(summarise(args.summarise), json.loads(Path(args.against).read_text())["cells"] if args.against else None)
+        return
     code = str(Path(args.code).resolve())
     data = args.data or str(Path(os.environ.get("NFEX_DATA", ROOT.parent / "shared" / "data")) / "kitti")
     cells = [(s, x) for s in args.sequences.split(",") for x in args.configs.split(",")]
@@ -107,11 +177,7 @@ def main() -> None:
     except OSError:
         rev = ""
     print(f"code {code} ({rev}), scale {args.scale or 'default'}, {args.runs} runs per cell, no front-end checks")
-    print(f"{'sequence':9} {'config':18} {'frames':>6} {'mean ATE':>9} {'std':>7} {'spread':>7} {'lost':>5}")
-    for c in results:
-        lost = sum(r["lost"] for r in c["runs"])
-        fmt = (lambda v: f"{v:.3f}" if v is not None else "-")  # noqa: E731
-        print(f"{c['sequence']:9} {c['config']:18} {c['frames']:6d} {fmt(c['mean']):>9} {fmt(c['std']):>7} {fmt(c['spread']):>7} {lost:5d}")
+    _print(results)
     if args.out:
         Path(args.out).write_text(json.dumps({"code": code, "revision": rev, "scale": args.scale, "runs": args.runs,
                                               "cells": results}, indent=1))

@@ -17,7 +17,9 @@ keypoints see which map point (``points``) or extend which pending track (``trac
   matched to the nearest descriptor within ``radius`` px that passes the ratio test; PnP is re-run on all
   correspondences, and a keyframe observes the inlying ones.
 - **Refinement**: after each new keyframe, ``bundle.adjust`` over the last ``window`` keyframes with the oldest
-  ``fixed`` held (with one held, its distance to the second oldest too); observations that reproject beyond
+  ``fixed`` held (with one held, its distance to the second oldest too) and each two consecutive keyframes' rotation
+  held to what their frame pairs' two-view estimates chain to (``relate``; σ_R = √5.991 px over the focal length,
+  the angle an inlier's tolerance subtends); observations that reproject beyond
   √5.991 σ afterwards are dropped, and points left with fewer than two.
 - **A change of configuration** (``switch``): the last two keyframes are re-extracted with the new configuration and
   their matches triangulated from their known poses, so the new points are in the map's scale.
@@ -58,8 +60,11 @@ class MapPoint:
 
 class LocalMap:
     def __init__(self, K: np.ndarray, *, window: int = 7, fixed: int = 1, min_angle_deg: float = 0.36,
-                 ba_iterations: int = 10) -> None:
+                 ba_iterations: int = 10, rotation_sigma: float | None = None) -> None:
         self.K = K
+        # σ_R of a pair's rotation (radians): the angle √5.991 px subtends at the focal length (bundle.adjust)
+        self.rotation_sigma = HUBER_PX / float(K[0, 0]) if rotation_sigma is None else rotation_sigma
+        self.rotations: dict[tuple[int, int], np.ndarray] = {}  # (keyframe i, keyframe j) → R_j←i from the pairs
         self.window, self.fixed, self.ba_iterations = window, fixed, ba_iterations
         self.min_cos = float(np.cos(np.radians(min_angle_deg)))
         self.keyframes: list[Keyframe] = []
@@ -77,6 +82,10 @@ class LocalMap:
         self.poses[kf.id] = kf.T_wc
         for old in self.keyframes[:-2]:
             old.image = None
+
+    def relate(self, i: int, j: int, R: np.ndarray) -> None:
+        """Keyframe j's rotation from keyframe i, R_j←i (x_j = R x_i + t), as the frame pairs between them chain it."""
+        self.rotations[(i, j)] = R
 
     def correspondences(self, ref: Keyframe, query: np.ndarray, train: np.ndarray) -> dict[int, int]:
         """Frame keypoint → map point, through the matches from ``ref`` whose keypoint there sees a point."""
@@ -188,7 +197,8 @@ class LocalMap:
         obs = [(i, pid, xy, sigma) for pid, pt in seen.items() for i, (_, xy, sigma) in pt.obs.items() if i in ids]
         poses, xs = adjust({kf.id: kf.T_wc for kf in win}, [kf.id for kf in win[: self.fixed]],
                            {pid: pt.X for pid, pt in seen.items()}, obs, self.K, iterations=self.ba_iterations,
-                           hold_range=(win[0].id, win[1].id) if self.fixed == 1 else None)
+                           hold_range=(win[0].id, win[1].id) if self.fixed == 1 else None,
+                           rotations=self.rotations, rotation_sigma=self.rotation_sigma)
         for kf in win:
             kf.T_wc = self.poses[kf.id] = poses[kf.id]
         by_id = {kf.id: kf for kf in win}
@@ -209,6 +219,8 @@ class LocalMap:
         ids = {kf.id for kf in self.keyframes[-keep:]}
         self.points = {pid: pt for pid, pt in self.points.items() if any(i in ids for i in pt.obs)}
         self.keyframes = self.keyframes[-keep:]
+        kept = {kf.id for kf in self.keyframes}
+        self.rotations = {ij: R for ij, R in self.rotations.items() if ij[0] in kept and ij[1] in kept}
 
     def _drop(self, pid: int, i: int, kf: Keyframe) -> None:
         kp = self.points[pid].obs.pop(i)[0]

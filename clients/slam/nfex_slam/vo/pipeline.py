@@ -20,7 +20,7 @@ that the map keeps its scale. A change of configuration re-extracts the last two
 triangulates their matches at their known poses: a switch costs those extractions, not the trajectory's scale.
 The returned poses are the refined ones (a frame between keyframes moves with its keyframe).
 
-The two-view VO (``twoview.ScaleChain``, the default while the map still drifts in some turns: docs/vo.md) chains T_w,k = T_w,k−1 · T_k←k−1⁻¹ with T_k←k−1 = [R | s·t]:
+The two-view VO (``twoview.ScaleChain``, the default while the map's seed spread with ORB_GRID exceeds 0.25: docs/vo.md) chains T_w,k = T_w,k−1 · T_k←k−1⁻¹ with T_k←k−1 = [R | s·t]:
 ``scale="triangulated"`` takes s from the points the previous step also triangulated (only while the
 configuration is unchanged, so a switch restarts it at constant speed), ``"unit"`` takes s = 1, and ``"gt"`` each
 step's length from the ground truth — a diagnostic that isolates rotation and direction errors. Either way a step
@@ -101,6 +101,10 @@ class VOParams:
     window_fixed: int = 1
     ba_iterations: int = 10
     search_radius_px: float = 8.0  # a map point's projection to a keypoint (ORB-SLAM: 2.5–4 px × the pyramid scale)
+    # the pairs' own rotations hold the map's heading: each two consecutive keyframes' rotation is held in the
+    # window's adjustment to what the frame pairs between them chain to, with σ_R = rotation_sigma_deg (None: the
+    # angle √5.991 px subtends at the focal length, 0.19° on KITTI; 0: no such factor)
+    rotation_sigma_deg: float | None = None
 
 
 @dataclass(frozen=True)

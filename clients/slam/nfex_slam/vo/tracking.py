@@ -9,7 +9,8 @@ For an accepted pair (frame k−1, frame k) whose two-view estimate passed the c
    located by PnP + RANSAC on the map points among the matches; with too few, the essential matrix's R and unit t
    scaled by the last step's length place it (t = 0 where the pair did not move).
 4. A frame that moved becomes a keyframe: its matches extend the map's points and tracks, tracks with parallax
-   enough are triangulated, and the window is bundle-adjusted (``bundle.adjust``).
+   enough are triangulated, and the window is bundle-adjusted (``bundle.adjust``) with its rotation from the last
+   keyframe held to the pairs' rotations chained since that keyframe (where no pair between them was lost).
 
 Every frame is anchored to the last keyframe at the time it was placed (T_kf⁻¹ · T_k); ``trajectory`` gives each
 frame its keyframe's refined pose times that anchor, so frames between keyframes (still, or coasted on the motion
@@ -36,10 +37,15 @@ class MapTracker:
     def __init__(self, seq: Sequence, p: VOParams, registry: Extractors) -> None:
         self.seq, self.p, self.registry = seq, p, registry
         self.map = LocalMap(seq.intrinsics.K, window=p.window, fixed=p.window_fixed, min_angle_deg=p.min_angle_deg,
-                            ba_iterations=p.ba_iterations)
+                            ba_iterations=p.ba_iterations,
+                            rotation_sigma=None if p.rotation_sigma_deg is None else float(np.radians(p.rotation_sigma_deg)))
         self.length = 1.0  # the last step's length in the map's scale: the essential matrix's fallback
         self.anchors: dict[int, tuple[int, np.ndarray]] = {}  # frame index → (keyframe id, T_kf⁻¹ · T_k)
         self.start: Keyframe | None = None  # the frame the map will start from, with no map yet
+        # the pairs' rotations chained from the last keyframe (with no map yet: the start) to the last frame placed,
+        # R_k←kf (None: a pair between them lost)
+        self.turned: np.ndarray | None = None
+        self.placed = -1  # the index of the last frame placed
 
     def place(self, frame: Frame, taken: Try, prev: Frame, prev_cache: dict[str, Features],
               prev_pose: np.ndarray) -> tuple[np.ndarray, float, float, str, int]:
@@ -49,6 +55,8 @@ class MapTracker:
         assert step is not None
         p, key = self.p, taken.choice.key
         extra_ms = match_ms = 0.0
+        self.turned = step.R @ self.turned if self.turned is not None and self.placed == prev.index else None
+        self.placed = frame.index
         if self.map.last is None:
             return self._start(frame, taken, prev, prev_cache, prev_pose)
         if self.map.last.key != key:
@@ -84,6 +92,9 @@ class MapTracker:
         if moved:
             kf = Keyframe(frame.index, T, key, taken.feats, xy, frame.image, keypoint_sigma(taken.feats))
             self.map.add(kf)
+            if self.turned is not None:
+                self.map.relate(ref.id, kf.id, self.turned)
+            self.turned = np.eye(3)
             if located is not None:
                 self.map.observe(kf, located[1])
             self.map.associate(ref, kf, q, t)
@@ -131,6 +142,7 @@ class MapTracker:
         if self.start is None or self.start.key != key:
             feats = prev_cache[key]
             self.start = Keyframe(prev.index, prev_pose, key, feats, self._xy(feats), prev.image, keypoint_sigma(feats))
+            self.turned = step.R
         s, match_ms = self.start, 0.0
         if s.id == prev.index:
             q, t = step.matches
@@ -139,6 +151,7 @@ class MapTracker:
             pair = self._two_view(s.xy, xy, q, t)
         if len(q) < 2 * p.start_points:  # too few matches left with the start (ORB-SLAM: 100): frame k starts again
             self.start = Keyframe(frame.index, T, key, taken.feats, xy, frame.image, keypoint_sigma(taken.feats))
+            self.turned = np.eye(3)
             return T, 0.0, match_ms, "essential", 0
         if not moved or pair is None or self._parallax_points(s.xy[q[pair[2]]], xy[t[pair[2]]], pair[0], pair[1]) < p.start_points:
             return T, 0.0, match_ms, "essential", 0
@@ -151,7 +164,10 @@ class MapTracker:
         self.map.add(kf)
         self.map.associate(s, kf, q, t)
         self.length = max(float(np.linalg.norm(T[:3, 3] - prev_pose[:3, 3])), 1e-9)
+        if self.turned is not None:
+            self.map.relate(s.id, kf.id, self.turned)
         self.start = None
+        self.turned = np.eye(3)
         self.anchor(frame.index, T)
         return T, 0.0, match_ms, "essential", 0
 
