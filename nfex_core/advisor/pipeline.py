@@ -147,7 +147,7 @@ def _take_scoring(f: Flow) -> ScoringIn:
     candidates = _need(f.budget).candidates if sym.carried is None else {}
     return ScoringIn(r.vocab, r.registry, sym.decision, candidates, r.neural, cond.image, r.previous, r.scorer,
                      r.table.cost, r.exhaustive, r.memo if cond.image is None else None, sym.carried, r.session,
-                     r.ranges)
+                     r.ranges, sym.refresh)
 
 
 def _take_verification(f: Flow) -> VerificationIn:

@@ -28,7 +28,9 @@ estimate inside the band is as likely the decision's value as its own and is no 
 so a session re-decides on a change of the given context, on an estimate that holds, on a rejected pair, and
 at least every nfex:sessionDecisionFrames frames (both data: rules/pruning/thresholds.ttl). A reused frame
 extracts α* alone (the stream's features stay those of neighbouring frames for the next decision's temporal
-metrics).
+metrics). A decision due again only because it served its frames (``refreshed``: the rest of the evidence
+still holds) re-decides α* as a single answer; where α* comes out the same, a verified pair's later proposals
+keep the order the decision scored them in (the pairs accepted α* since), so they are not extracted again.
 """
 from __future__ import annotations
 
@@ -115,3 +117,13 @@ def reusable(terms: ReuseTerms, last: Decided | None, key: tuple[Any, ...], stat
         return None
     differed = last.differed + 1 if differs(terms, last.estimate, estimate, confidence or {}) else 0
     return replace(last, reused=last.reused + 1, differed=differed) if differed < terms.hold else None
+
+
+def refreshed(terms: ReuseTerms, last: Decided | None, key: tuple[Any, ...], verdict_held: bool,
+              estimate: tuple[tuple[str, str | None], ...], confidence: Mapping[str, float | None]) -> Decided | None:
+    """A session's ``last`` decision when it is due again only because it was reused ``terms.limit`` frames (same
+    key, the verdict held, the estimate unchanged): the frame re-decides α*, and the verification's later proposals
+    may keep the order ``last`` scored (stages.scoring); else None."""
+    if last is None or not verdict_held or last.key != key or last.reused < terms.limit(True):
+        return None
+    return last if not differs(terms, last.estimate, estimate, confidence) else None

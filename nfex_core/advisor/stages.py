@@ -28,7 +28,7 @@ from .choice import ranked
 from .conditions import Conditions, read_conditions
 from .params import Candidate, Parameters, theta
 from .ranges import MetricRanges
-from .reuse import Decided, ReuseTerms, reusable
+from .reuse import Decided, ReuseTerms, refreshed, reusable
 from .scoring import FrameState, Scored, Scorer, by_network, downscale, prior_scores
 from .selection import UNSCORED, CandidateScore, PrunedCandidate, Scoring, Selection
 
@@ -80,6 +80,7 @@ class Symbolic:
     key: tuple[Any, ...] | None = None
     estimate: tuple[tuple[str, str | None], ...] = ()
     carried: Decided | None = None
+    refresh: Decided | None = None  # a session's decision due again while its evidence holds (reuse.refreshed)
 
 
 def symbolic(i: SymbolicIn) -> Symbolic:
@@ -104,6 +105,9 @@ def symbolic(i: SymbolicIn) -> Symbolic:
 
         confidence = {e.dimension: e.confidence for e in cond.entries if e.source != "given"}
         carried = reusable(i.reuse, i.last, key, cond.stats, FRAME_KEYS, i.session, i.verdict_held, estimate, confidence)
+        if carried is None and i.session:
+            refresh = refreshed(i.reuse, i.last, key, i.verdict_held, estimate, confidence)
+            return Symbolic(decision, budget, key, estimate, None, refresh)
     return Symbolic(decision, budget, key, estimate, carried)
 
 
@@ -205,6 +209,7 @@ class ScoringIn:
     carried: Decided | None = None
     session: bool = False
     ranges: MetricRanges | None = None  # measured metric ranges: evidence that narrows the bounds (ranges.py)
+    refresh: Decided | None = None  # a session's decision due again while its evidence holds (Symbolic.refresh)
 
 
 def scoring(i: ScoringIn) -> Scored:
@@ -227,9 +232,32 @@ def scoring(i: ScoringIn) -> Scored:
         return Scored(ranked(i.decision, listed), None, "selectornet" if decided else "prior", how)
     # verification tries the first proposals in order: those must be scored, not only the winner
     top = i.decision.verification.max_tries if i.decision.verification.active else 1
+    if i.refresh is not None and top > 1 and not i.exhaustive:
+        kept = _refreshed(i, i.refresh)
+        if kept is not None:
+            return kept
     scored = i.scorer.on_frame(i.vocab, i.registry(), i.decision, Parameters(dict(i.candidates)), i.neural, i.image,
                                i.previous, i.exhaustive, i.cost, top, i.ranges)
     return replace(scored, candidates=ranked(i.decision, scored.candidates))
+
+
+def _refreshed(i: ScoringIn, due: Decided) -> Scored | None:
+    """A session's decision due again while its evidence held (its verdicts accepted α*, its estimate unchanged):
+    α* is scored on this frame as a single answer; where it is the decision's α* again, the proposals after it keep
+    the order that decision scored them in (the pair has confirmed it since), so the others are not extracted.
+    None where α* changed: the frame is then scored for every proposal."""
+    assert i.image is not None
+    scored = i.scorer.on_frame(i.vocab, i.registry(), i.decision, Parameters(dict(i.candidates)), i.neural, i.image,
+                               i.previous, False, i.cost, 1, i.ranges)
+    order = ranked(i.decision, scored.candidates)
+    before = [c.extractor for c in due.selection.candidates]
+    if not order or order[0].extractor != due.selection.extractor:
+        return None
+    rest = sorted(order[1:], key=lambda c: before.index(c.extractor) if c.extractor in before else len(before))
+    assert scored.scoring is not None
+    how = replace(scored.scoring, reason=f"{scored.scoring.reason}; the proposals after {order[0].extractor} in the "
+                  f"order the decision of {due.reused + 1} frame(s) ago scored them: its α* again, and its verdicts held")
+    return replace(scored, candidates=[order[0], *rest], scoring=how)
 
 
 def _carried(i: ScoringIn, decided: Decided) -> Scored:

@@ -165,3 +165,42 @@ def test_an_estimate_inside_the_dead_band_keeps_a_session_decision(kg: Knowledge
     # frame 16: an estimate beyond its band for two frames; 46 and 76: the decision served 30 frames
     assert banded == [0, 16, 46, 76, 78]
     assert every == [0, 2, 8, 10, 12, 21, 27, 57, 60, 82, 86, 88]  # texture high ⇄ medium at confidence ≈ 0.5
+
+
+def test_a_verified_session_due_again_keeps_its_proposals_order_while_the_pairs_confirm_it(
+        shipped_kg: KnowledgeGraph, data_dir: Path) -> None:
+    """Under the verification program, a session's decision due again only because it served
+    nfex:sessionDecisionFrames frames (its verdicts held, its estimate unchanged) scores α* alone; where α* is the
+    same, the later proposals keep the order the decision scored them in, and the answer says so. A verdict that
+    did not hold scores the first proposals in exact order again, extracting more (counted)."""
+    from nfex_core.rules.dsl import programs
+
+    text = (Path(__file__).resolve().parents[3] / "rules" / "verification" / "verification.nfex").read_text()
+    _, g = programs.compile_text(text, shipped_kg.vocabulary(), name="verification")
+    programs.apply(shipped_kg, g, "verification", author="test")
+    session_frames(shipped_kg, 4)
+    images = [cv2.imread(str(p), cv2.IMREAD_GRAYSCALE) for p in sorted((data_dir / FRAMES).glob("*.png"))[40:45]]
+    advisor = Advisor(shipped_kg, neural="symbolic")
+    registry = advisor.snapshot().registry
+
+    def run(held_at_last: bool) -> tuple[list, int]:  # type: ignore[type-arg]
+        out, state, n = [], None, 0
+        for k, image in enumerate(images):
+            before = registry.work.totals()[0]
+            sel = advisor.select({"agent": "car"}, image, state, session=True,
+                                 verdict_held=held_at_last or k < len(images) - 1)
+            n = registry.work.totals()[0] - before
+            out.append(sel)
+            state = sel.state
+        return out, n
+
+    out, work = run(True)
+    assert [s.reused for s in out] == [0, 1, 2, 3, 0]
+    first, due = out[0], out[4]
+    assert due.verification.active and due.verification.max_tries >= 2
+    assert due.extractor == first.extractor
+    assert [p.extractor for p in due.proposals] == [p.extractor for p in first.proposals]
+    assert due.scoring is not None and "the order the decision of 4 frame(s) ago scored them" in due.scoring.reason
+    again, work_again = run(False)
+    assert again[4].reused == 0 and again[4].scoring is not None and "scored them" not in again[4].scoring.reason
+    assert work < work_again
