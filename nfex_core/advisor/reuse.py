@@ -109,7 +109,27 @@ def reusable(terms: ReuseTerms, last: Decided | None, key: tuple[Any, ...], stat
     """``last`` carried to a frame decided under ``key`` with ``stats`` (and, in a session, ``estimate`` with each
     dimension's ``confidence``) if it may answer it (module docstring), else None: in a stream while the statistics
     have not moved, in a session while its evidence holds."""
-    if last is None or stats is None or last.reused >= terms.limit(session) or last.key != key:
+    if last is None or last.reused >= terms.limit(session):
+        return None
+    return _holds(terms, last, key, stats, keys, session, verdict_held, estimate, confidence)
+
+
+def refreshed(terms: ReuseTerms, last: Decided | None, key: tuple[Any, ...], stats: Mapping[str, float] | None,
+              keys: tuple[str, ...], verdict_held: bool, estimate: tuple[tuple[str, str | None], ...],
+              confidence: Mapping[str, float | None]) -> Decided | None:
+    """A session's ``last`` decision when only its count makes it due (``reusable`` would carry it otherwise): the
+    frame re-decides α*, and the verification's later proposals may keep the order ``last`` scored
+    (stages.scoring); else None."""
+    if last is None or last.reused < terms.limit(True):
+        return None
+    return last if _holds(terms, last, key, stats, keys, True, verdict_held, estimate, confidence) else None
+
+
+def _holds(terms: ReuseTerms, last: Decided, key: tuple[Any, ...], stats: Mapping[str, float] | None,
+           keys: tuple[str, ...], session: bool, verdict_held: bool, estimate: tuple[tuple[str, str | None], ...],
+           confidence: Mapping[str, float | None] | None) -> Decided | None:
+    """``last`` one frame further if the evidence it was decided on holds on this frame, whatever its count."""
+    if stats is None or last.key != key:
         return None
     if not session:
         return replace(last, reused=last.reused + 1) if moved(last.stats, stats, keys) <= terms.change else None
@@ -117,13 +137,3 @@ def reusable(terms: ReuseTerms, last: Decided | None, key: tuple[Any, ...], stat
         return None
     differed = last.differed + 1 if differs(terms, last.estimate, estimate, confidence or {}) else 0
     return replace(last, reused=last.reused + 1, differed=differed) if differed < terms.hold else None
-
-
-def refreshed(terms: ReuseTerms, last: Decided | None, key: tuple[Any, ...], verdict_held: bool,
-              estimate: tuple[tuple[str, str | None], ...], confidence: Mapping[str, float | None]) -> Decided | None:
-    """A session's ``last`` decision when it is due again only because it was reused ``terms.limit`` frames (same
-    key, the verdict held, the estimate unchanged): the frame re-decides α*, and the verification's later proposals
-    may keep the order ``last`` scored (stages.scoring); else None."""
-    if last is None or not verdict_held or last.key != key or last.reused < terms.limit(True):
-        return None
-    return last if not differs(terms, last.estimate, estimate, confidence) else None

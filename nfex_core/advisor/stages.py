@@ -106,7 +106,7 @@ def symbolic(i: SymbolicIn) -> Symbolic:
         confidence = {e.dimension: e.confidence for e in cond.entries if e.source != "given"}
         carried = reusable(i.reuse, i.last, key, cond.stats, FRAME_KEYS, i.session, i.verdict_held, estimate, confidence)
         if carried is None and i.session:
-            refresh = refreshed(i.reuse, i.last, key, i.verdict_held, estimate, confidence)
+            refresh = refreshed(i.reuse, i.last, key, cond.stats, FRAME_KEYS, i.verdict_held, estimate, confidence)
             return Symbolic(decision, budget, key, estimate, None, refresh)
     return Symbolic(decision, budget, key, estimate, carried)
 
