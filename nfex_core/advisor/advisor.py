@@ -212,14 +212,12 @@ class Advisor:
             staleness=self.snapshots.staleness(snap), timings=laps.timings,
         )
         flow = Flow(request)
-        carried = False
         for stage in PIPELINE:
-            if carried and not stage.on_reuse:
+            if flow.carried and not stage.on_reuse:
                 laps.skip(stage.name)
                 continue
             stage(flow)
             laps(stage.name)
-            carried = carried or flow.carried
         assert flow.answer is not None
         laps.timings["total"] = sum(laps.timings.values())  # the answer's timings_ms: the runner's, filled in last
         return flow.answer

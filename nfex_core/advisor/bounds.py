@@ -9,7 +9,7 @@ score therefore lies in
 
 M(α) the metrics α will have on this frame (the single-frame ones, and the temporal ones where the previous
 frame holds α); an unweighted metric weighs 1, as in fitness.f_metrics. Where the graph holds measured metric
-ranges (ranges.py), ``ranged_bounds`` replaces each [0, 1] by the measured range [lo_x, hi_x] of the oriented
+ranges (ranges.py), ``score_bounds`` with ``spans`` replaces each [0, 1] by the measured range [lo_x, hi_x] of the oriented
 metric: low(α) = bonus + Σ min(h_x·lo_x, h_x·hi_x) + H·A(α), high likewise with max — evidence, not a proof. Once α is extracted, low = high = its
 score. α* is settled when one candidate's low exceeds every other candidate's high by SCORE_MARGIN — then
 nothing more is extracted, possibly nothing at all — or when every candidate that can still reach the leader's
@@ -35,27 +35,18 @@ from ..rules.types import Decision
 SCORE_MARGIN = 1e-9  # a bound decides only by more than rounding
 
 
-def score_bounds(decision: Decision, metric_names: Iterable[str], known_metrics: Iterable[str], extractor: str,
-                 accuracy: float, weight: float) -> tuple[float, float]:
+def score_bounds(decision: Decision, specs: Mapping[str, MetricSpec], metric_names: Iterable[str], extractor: str,
+                 accuracy: float, weight: float, spans: Mapping[str, tuple[float, float]] | None = None
+                 ) -> tuple[float, float]:
     """(low, high) of F_metrics + H·A for ``extractor`` before extraction, over the ``metric_names`` it will have
-    that the graph knows (``known_metrics``); module docstring."""
-    known = set(known_metrics)
-    bonus = decision.bonuses[extractor].value if extractor in decision.bonuses else 0.0
-    weights = [decision.weights[m].value if m in decision.weights else 1.0 for m in metric_names if m in known]
-    base = bonus + weight * accuracy
-    return base + sum(min(0.0, w) for w in weights), base + sum(max(0.0, w) for w in weights)
-
-
-def ranged_bounds(decision: Decision, specs: Mapping[str, MetricSpec], metric_names: Iterable[str], extractor: str,
-                  accuracy: float, weight: float, spans: Mapping[str, tuple[float, float]]) -> tuple[float, float]:
-    """(low, high) of F_metrics + H·A for ``extractor`` with each metric's raw value in ``spans`` (default [0, 1]),
-    oriented as fitness.oriented turns it (module docstring)."""
+    that the graph knows (``specs``), each metric's raw value in its ``spans`` entry (default [0, 1], the sound
+    bound), oriented as fitness.oriented turns it (module docstring)."""
     bonus = decision.bonuses[extractor].value if extractor in decision.bonuses else 0.0
     low = high = bonus + weight * accuracy
     for m in metric_names:
         if m not in specs:
             continue
-        lo, hi = spans.get(m, (0.0, 1.0))
+        lo, hi = (spans or {}).get(m, (0.0, 1.0))
         if not specs[m].higher_is_better:
             lo, hi = 1.0 - hi, 1.0 - lo
         w = decision.weights[m].value if m in decision.weights else 1.0

@@ -37,7 +37,7 @@ from ..neural.serve import BoundedChoice, NeuralStep
 from ..rules.fitness import f_metrics
 from ..rules.types import Decision
 from ..vision.work import Work
-from .bounds import contenders, next_extraction, ranged_bounds, score_bounds, settled_reason
+from .bounds import contenders, next_extraction, score_bounds, settled_reason
 from .params import Candidate, Parameters
 from .ranges import MetricRanges
 from .reuse import Decided
@@ -217,7 +217,7 @@ class Scorer:
                     return Scored(ranked, state(done), "selectornet", tally.scoring(SCORED, "SelectorNet's probabilities"))
             break  # SelectorNet declines: F_metrics and the measured accuracy decide among all candidates
         by_name = {c.extractor: c for c in everything}
-        bounds = {x: score_bounds(decision, will_have(x), vocab.metrics, x, accuracy.get(x, 0.0), weight) for x in by_name}
+        bounds = {x: score_bounds(decision, vocab.metrics, will_have(x), x, accuracy.get(x, 0.0), weight) for x in by_name}
         evidence = ranges if ranges and not exhaustive else None
         held = [evidence is not None]  # whether the measured ranges held on this frame so far
 
@@ -229,7 +229,7 @@ class Scorer:
                 if span is None:
                     return None
                 spans[m] = span
-            return ranged_bounds(decision, vocab.metrics, will_have(x), x, accuracy.get(x, 0.0), weight, spans)
+            return score_bounds(decision, vocab.metrics, will_have(x), x, accuracy.get(x, 0.0), weight, spans)
         ms = {x: extraction_ms(cost, vocab, x, at_scale[x], small.shape, decision, by_name[x]) * (1 + (
             previous is not None and temporal(x) and x not in previous.features)) for x in by_name}
 
@@ -305,8 +305,6 @@ def extraction_ms(cost: CostModel | None, vocab: Vocabulary, extractor: str, par
     return expected_ms(decision, c)
 
 
-
-
 def expected_ms(decision: Decision, c: Candidate) -> float:
     """The order in which SelectorNet's candidates are extracted: the budget's expected time, else the measured
     mean extraction time, else last."""
@@ -314,12 +312,6 @@ def expected_ms(decision: Decision, c: Candidate) -> float:
         return c.cost.ms
     e = decision.evidence.get(c.extractor)
     return e.extraction_ms if e is not None and e.extraction_ms is not None else math.inf
-
-
-def score_ceiling(decision: Decision, vocab: Vocabulary, extractor: str, metrics: Iterable[str], accuracy: float,
-                  weight: float) -> float:
-    """The most F_metrics + H·A can give ``extractor`` on this frame (bounds.score_bounds' high bound)."""
-    return score_bounds(decision, metrics, vocab.metrics, extractor, accuracy, weight)[1]
 
 
 def settled(decision: Decision, params: Parameters, bound: BoundedChoice, known: frozenset[str],

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -35,8 +35,6 @@ from .selection import UNSCORED, CandidateScore, PrunedCandidate, Scoring, Selec
 if TYPE_CHECKING:
     from ..rules.table import RuleTable
 
-I = TypeVar("I")  # noqa: E741  (a stage's input record)
-O = TypeVar("O")  # noqa: E741  (a stage's output record)
 Memo = dict[tuple[Any, ...], Any]
 
 

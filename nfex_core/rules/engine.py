@@ -45,7 +45,6 @@ from ..kg.storage.footprint import Anchor, Effect, Reach, anchors, change_effect
 from ..kg.storage.history import read_changes
 from ..kg.vocabulary.vocab import ExtractorSpec, Value
 from . import pruning
-from .memo import MAX_MADE
 from .persisted import CompiledCache
 from .setup import Setup
 from .table import CompileState, RuleTable, _measured_configuration
@@ -58,7 +57,7 @@ from .types import (
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
 
-__all__ = ["MAX_MADE", "CompileState", "RuleEngine", "RuleTable", "backend_citations", "compile_table"]
+__all__ = ["CompileState", "RuleEngine", "RuleTable", "backend_citations", "compile_table"]
 
 log = logging.getLogger("nfex.rules")
 K = TypeVar("K", bound=Hashable)

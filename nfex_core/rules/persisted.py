@@ -42,7 +42,6 @@ from ..kg.rdf.namespaces import NFEX
 from ..kg.rdf.terms import n3
 from ..kg.storage.claims import META
 from ..kg.storage.history import version_iri
-from .memo import ContextMemo
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
@@ -153,7 +152,7 @@ class CompiledCache:
                 kept = dataclasses.replace(
                     table, decisions=dict(table.decisions),
                     carry=dataclasses.replace(carry, view=view.detached() if view is not None else None) if carry else None,
-                    kept_in=None, memo=ContextMemo(), made_before=None)
+                    kept_in=None, made_before=None)  # the memo pickles empty (ContextMemo.__reduce__)
                 head = {"format": FORMAT, "code": code_digest(), "location": self.location, "version": table.version, "commit": commit}
 
                 def write(f: BinaryIO) -> None:

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from nfex_core.advisor.bounds import SCORE_MARGIN, contenders, next_extraction, ranged_bounds, score_bounds
+from nfex_core.advisor.bounds import SCORE_MARGIN, contenders, next_extraction, score_bounds
 from nfex_core.advisor.ranges import MetricRanges
 from nfex_core.kg import KnowledgeGraph
 from nfex_core.rules.fitness import f_metrics
@@ -51,7 +51,7 @@ def scores(p: dict, specs) -> tuple[Decision, dict[str, float], dict[str, tuple[
     for x, c in zip(names, p["candidates"], strict=True):
         have = METRICS if c["temporal"] else SINGLE_FRAME
         exact[x] = f_metrics({m: c["metrics"][m] for m in have}, weights, specs, c["bonus"]) + H * c["accuracy"]
-        bounds[x] = score_bounds(decision, have, specs, x, c["accuracy"], H)
+        bounds[x] = score_bounds(decision, specs, have, x, c["accuracy"], H)
         ms[x] = c["ms"]
     return decision, exact, bounds, ms
 
@@ -96,14 +96,14 @@ span = st.tuples(unit, unit).map(sorted).map(tuple)
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(problem, st.data())
 def test_measured_ranges_bound_every_score_whose_metrics_lie_in_them(specs, p: dict, data) -> None:  # type: ignore[no-untyped-def, type-arg]
-    """Any metric values inside the ranges give a score inside ranged_bounds, which lies inside the sound bounds."""
+    """Any metric values inside the ranges give a score inside the ranged score_bounds, which lie inside the sound bounds."""
     decision, _, bounds, _ = scores(p, specs)
     H = sum(w.value for w in decision.weights.values())
     for i, c in enumerate(p["candidates"]):
         x, have = f"X{i}", METRICS if c["temporal"] else SINGLE_FRAME
         spans = {m: data.draw(span) for m in have}
         metrics = {m: data.draw(st.floats(*spans[m])) for m in have}
-        low, high = ranged_bounds(decision, specs, have, x, c["accuracy"], H, spans)
+        low, high = score_bounds(decision, specs, have, x, c["accuracy"], H, spans)
         score = f_metrics(metrics, decision.weights, specs, c["bonus"]) + H * c["accuracy"]
         assert low - 1e-9 <= score <= high + 1e-9
         assert bounds[x][0] - 1e-9 <= low <= high <= bounds[x][1] + 1e-9

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from nfex_core.advisor.advisor import Advisor
-from nfex_core.advisor.scoring import FrameState, measured_accuracy, score_ceiling
+from nfex_core.advisor.bounds import score_bounds
+from nfex_core.advisor.scoring import FrameState, measured_accuracy
 from nfex_core.kg import KnowledgeGraph
 
 CONTEXTS = [{"agent": "car"}, {"agent": "car", "budget_ms": 20}, {"agent": "drone"}, {"agent": "human"},
@@ -47,7 +48,7 @@ def test_pruned_scoring_answers_as_exhaustive_scoring(shipped_kg: KnowledgeGraph
                 weight = sum(w.value for w in decision.weights.values())
                 for c in b.candidates:  # the ceiling is sound: no score exceeds it
                     if c.evidence.f_metrics is not None:
-                        top = score_ceiling(decision, snap.vocab, c.extractor, c.metrics, accuracy.get(c.extractor, 0.0), weight)
+                        top = score_bounds(decision, snap.vocab.metrics, c.metrics, c.extractor, accuracy.get(c.extractor, 0.0), weight)[1]
                         assert c.evidence.f_metrics + weight * (c.evidence.measured_accuracy or 0.0) <= top + 1e-9, where
                 for c in a.candidates:
                     if c.score is not None and c.evidence.not_scored is None and a.mode == "metrics":

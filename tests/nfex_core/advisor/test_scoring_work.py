@@ -147,7 +147,7 @@ def test_bounds_contain_every_score_and_the_order_settles(shipped_kg: KnowledgeG
         accuracy = measured_accuracy(decision, [c.extractor for c in sel.candidates])
         weight = sum(w.value for w in decision.weights.values())
         for c in sel.candidates:
-            low, high = score_bounds(decision, c.metrics, snap.vocab.metrics, c.extractor, accuracy.get(c.extractor, 0.0), weight)
+            low, high = score_bounds(decision, snap.vocab.metrics, c.metrics, c.extractor, accuracy.get(c.extractor, 0.0), weight)
             assert c.score is not None and low - 1e-9 <= c.score <= high + 1e-9, (context, c.extractor)
         exact = {c.extractor: (c.score, c.score) for c in sel.candidates}
         assert next_extraction(exact, [], {}) is None
