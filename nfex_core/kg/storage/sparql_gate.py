@@ -105,9 +105,11 @@ def _gate(text: str, *, update: bool) -> Gated:
         raise BadInput(f"the {'update' if update else 'query'} is empty")
     if len(text) > MAX_CHARS:
         raise TooLarge(f"the SPARQL text has {len(text)} characters; the limit is {MAX_CHARS}", limit=MAX_CHARS)
-    gated, error = _judged(text, update)
+    # the verdict is kept per text, a refusal as a fresh exception each time: re-raising one cached object would
+    # chain every raise's frames (and the locals they hold) onto its traceback
+    gated, error = _judged(text, update) if len(text) <= CACHED_CHARS else _judged.__wrapped__(text, update)
     if error is not None:
-        raise error
+        raise type(error)(error.detail, **error.extra) from None
     assert gated is not None
     return gated
 
@@ -120,6 +122,11 @@ def _parser() -> Any:
     with warnings.catch_warnings():  # the grammar's wheel hands its language over as an int pointer
         warnings.simplefilter("ignore", DeprecationWarning)
         return Parser(Language(tree_sitter_sparql.language()))
+
+
+# texts up to this long are judged once (the rules' texts, a workbench's repeated queries); longer ones each time, so
+# the cache holds at most 1024 × 8,000 characters whatever an anonymous client sends
+CACHED_CHARS = 8_000
 
 
 @lru_cache(maxsize=1024)

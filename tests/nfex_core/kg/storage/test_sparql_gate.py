@@ -249,3 +249,20 @@ def _update_wipes(text: str) -> bool:
 def test_gate_and_oxigraph_agree_on_updates(closed_port: int, data: st.DataObject) -> None:
     text = data.draw(update_spellings(closed_port))
     _agrees(gate_update, text, _effect(lambda: _update_wipes(text)))
+
+
+@pytest.mark.parametrize("text", ["SELECT * WHERE { SERVICE <http://127.0.0.1:9/> { ?s ?p ?o } }",
+                                  "SELECT * WHERE { " + "?s ?p ?o . " * 900 + "SERVICE <http://127.0.0.1:9/> { ?s ?p ?o } }"])
+def test_a_refusal_is_a_fresh_exception_each_time(text: str) -> None:
+    """A refused text, short (its verdict cached) or long (judged each time), raises a new exception on every call:
+    one cached exception raised again would grow its traceback by every raise's frames and keep their locals."""
+    seen = []
+    for _ in range(3):
+        with pytest.raises(BadInput) as caught:
+            gate_query(text)
+        seen.append(caught.value)
+        tb, depth = caught.value.__traceback__, 0
+        while tb is not None:
+            depth, tb = depth + 1, tb.tb_next
+        assert depth <= 3, depth
+    assert len({id(e) for e in seen}) == 3 and {e.detail for e in seen} == {seen[0].detail}
