@@ -182,6 +182,13 @@ class QueryRunner:
                     return worker
         return Worker()
 
+    def _release(self, worker: Worker, writer: LimitedWriter) -> None:
+        """``worker`` back to the idle ones, no longer this query's to kill: under the lock ``run`` kills under, so a
+        deadline that fires now cannot kill a worker another query has taken."""
+        with self._workers_lock:
+            writer.cancel = None
+            self._idle.append(worker)
+
     def _in_worker(self, query: str, media: str, writer: LimitedWriter) -> str:
         assert self.checkpoints is not None
         checkpoint = self.checkpoints.acquire()
@@ -189,8 +196,7 @@ class QueryRunner:
         writer.cancel = worker.kill
         if writer.error is not None:  # the deadline passed while the checkpoint was made
             self.checkpoints.release(checkpoint)
-            with self._workers_lock:
-                self._idle.append(worker)
+            self._release(worker, writer)
             raise OSError("stopped at its deadline")
         try:
             graph = media if media in GRAPH_FORMATS else "text/turtle"
@@ -205,8 +211,7 @@ class QueryRunner:
             if writer.error is not None or worker.killed:
                 raise OSError("stopped at its deadline")
             raise StoreUnavailable("the query's worker process ended before answering (see the service log)")
-        with self._workers_lock:
-            self._idle.append(worker)
+        self._release(worker, writer)
         header, body = answer
         if not header["ok"]:
             if header["error"] == "syntax":
@@ -276,8 +281,9 @@ class QueryRunner:
         fut.add_done_callback(lambda f: f.cancelled() or f.exception())  # an abandoned query's error is expected
         detail = f"the query ran past its time limit of {self.timeout_s:g} s"
         writer.error = writer.error or QueryLimitExceeded(detail, limit="time")  # stops it at its next write
-        if writer.cancel is not None:
-            writer.cancel()  # or, in a worker process, at once
+        with self._workers_lock:  # a worker the job has released is no longer this query's (``_release``)
+            if writer.cancel is not None:
+                writer.cancel()  # or, in a worker process, at once
         raise QueryLimitExceeded(detail, limit="time")
 
     def close(self) -> None:
