@@ -133,9 +133,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     openapi.install(app)
     app.add_middleware(MethodsMiddleware)
     ui.mount(app)
+    # added last is outermost: a JSON body is judged inside the URL-token guard and CORS, so a refused body of a
+    # cross-origin read still carries its CORS headers, and a token in the URL is refused before a body is read
+    app.add_middleware(JsonBodyGuard)
     app.add_middleware(TokenInUrlGuard, tokens=lambda: getattr(app.state, "tokens", None))
     app.add_middleware(ReadOnlyCORS, origins=settings.parsed_cors_origins())
-    app.add_middleware(JsonBodyGuard)
     app.add_middleware(ServiceMiddleware, metrics=metrics, max_body_bytes=settings.max_body_bytes,
                        body_timeout_s=settings.body_timeout_s)
     return app

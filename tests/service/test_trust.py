@@ -248,6 +248,10 @@ def test_cors_for_reads_only(svc: Service) -> None:
     assert "POST" in pre.headers["access-control-allow-methods"]
     r = httpx.post(svc.url + "/v1/select", json={"context": {}}, headers={"Origin": ORIGIN})
     assert r.headers["access-control-allow-origin"] == ORIGIN
+    # a body the JSON guard refuses is still a read's answer the page may see (its problem+json)
+    bad = httpx.post(svc.url + "/v1/select", content=b'{"context": {"budget_ms": NaN}}',
+                     headers={"Origin": ORIGIN, "Content-Type": "application/json"})
+    assert bad.status_code == 400 and bad.headers["access-control-allow-origin"] == ORIGIN
     assert httpx.get(svc.url + "/sparql", params={"query": "ASK {}"}, headers={"Origin": ORIGIN}).headers[
         "access-control-allow-origin"] == ORIGIN
     for path, method in (("/sparql/update", "POST"), ("/v1/feedback", "POST"), ("/v1/rules/x", "PUT"), ("/v1/graph/rollback", "POST")):
