@@ -68,7 +68,7 @@ class Snapshot:
     taken_at: float = field(default_factory=time.monotonic)
     _registry: Any = None
     # context-only answers depend on the decision alone: computed once per context and snapshot (stages.py)
-    priors: Memo = field(default_factory=dict)
+    priors: Memo = field(default_factory=Memo)
 
     @property
     def registry(self) -> Any:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -35,7 +35,32 @@ from .selection import UNSCORED, CandidateScore, PrunedCandidate, Scoring, Selec
 if TYPE_CHECKING:
     from ..rules.table import RuleTable
 
-Memo = dict[tuple[Any, ...], Any]
+V = TypeVar("V")
+MEMO_LIMIT = 20_000  # entries of a snapshot's Memo: contexts × budgets × frame sizes × models asked
+
+
+class Memo:
+    """A snapshot's answers that do not depend on a frame, per key; at most ``limit`` kept (past it an answer is
+    computed each time: a client's budgets and frame sizes cannot grow it without bound). A key may name objects by
+    ``id``; those objects are kept with the answer and a hit requires the same objects, so a reused id never
+    answers for another."""
+
+    def __init__(self, limit: int = MEMO_LIMIT) -> None:
+        self.limit = limit
+        self._kept: dict[tuple[Any, ...], tuple[tuple[object, ...], Any]] = {}
+
+    def __len__(self) -> int:
+        return len(self._kept)
+
+    def get(self, key: tuple[Any, ...], make: Callable[[], V], *owners: object) -> V:
+        """The answer under ``key`` (whose ids name ``owners``), made by ``make`` where none is kept."""
+        hit = self._kept.get(key)
+        if hit is not None and len(hit[0]) == len(owners) and all(a is b for a, b in zip(hit[0], owners, strict=True)):
+            return hit[1]
+        value = make()
+        if len(self._kept) < self.limit:
+            self._kept[key] = (owners, value)
+        return value
 
 
 # ---------------------------------------------------------------- conditions
@@ -129,11 +154,8 @@ def params(i: ParamsIn) -> Parameters:
         i.neural.prepare(i.values, frame_stats(i.stats))
     if i.memo is None:
         return theta(i.vocab, i.table, i.decision, i.values, i.budget, i.neural, i.pixels)
-    key = ("params", id(i.decision), i.budget, i.neural.info.get("used"))
-    hit = i.memo.get(key)
-    if hit is None:
-        hit = i.memo[key] = theta(i.vocab, i.table, i.decision, i.values, i.budget, i.neural, i.pixels)
-    return hit
+    return i.memo.get(("params", id(i.decision), i.budget, i.neural.info.get("used")),
+                      lambda: theta(i.vocab, i.table, i.decision, i.values, i.budget, i.neural, i.pixels), i.decision)
 
 
 # ---------------------------------------------------------------- budget
@@ -183,11 +205,7 @@ def budget(i: BudgetIn) -> Settled:
     """The stage: ``settle_budget``, once per context and snapshot without a frame (``memo``)."""
     if i.memo is None:
         return settle_budget(i)
-    key = ("budget", id(i.params))  # the memo keeps that Parameters, made for one decision, budget and model
-    hit = i.memo.get(key)
-    if hit is None:
-        hit = i.memo[key] = settle_budget(i)
-    return hit
+    return i.memo.get(("budget", id(i.params)), lambda: settle_budget(i), i.params)  # one decision, budget, model
 
 
 # ---------------------------------------------------------------- scoring
@@ -216,14 +234,11 @@ def scoring(i: ScoringIn) -> Scored:
     if i.carried is not None:
         return _carried(i, i.carried)
     if i.image is None:
-        hit = None
-        key = ("prior", id(i.decision), id(i.candidates))
-        if i.memo is not None:
-            hit = i.memo.get(key)
-        if hit is None:
-            hit = prior_scores(i.decision, Parameters(dict(i.candidates)))
-            if i.memo is not None:
-                i.memo[key] = hit
+        def prior() -> list[CandidateScore]:
+            return prior_scores(i.decision, Parameters(dict(i.candidates)))
+
+        hit = prior() if i.memo is None else \
+            i.memo.get(("prior", id(i.decision), id(i.candidates)), prior, i.decision, i.candidates)
         listed, decided = by_network(i.neural, None, list(hit), list(hit))
         how = Scoring(UNSCORED, "no frame: " + ("SelectorNet's probabilities on the context" if decided else
                                                 "the preference bonus and the measured accuracy decide"))
@@ -309,13 +324,14 @@ def verification(i: VerificationIn) -> Verification:
     if i.budget is None or not policy.active or cap <= 1.0:
         return Verification(policy)
     wide = replace(i.budget, ms=i.budget.ms * cap, source=f"{i.budget.source} × verification cap {cap:g}")
-    key = ("escalations", id(i.decision), wide, i.neural.info.get("used"))
-    hit = i.memo.get(key)
-    if hit is None:
+
+    def escalations() -> tuple[CandidateScore, ...]:
         p = theta(i.vocab, i.table, i.decision, i.values, wide, i.neural, None)
         settled = settle_budget(BudgetIn(i.table.cost, i.table.budget_terms, i.vocab.extractors, i.decision, p, wide))
-        hit = i.memo[key] = tuple(ranked(i.decision, prior_scores(i.decision, Parameters(dict(settled.candidates)))))
-    return Verification(policy, hit)
+        return tuple(ranked(i.decision, prior_scores(i.decision, Parameters(dict(settled.candidates)))))
+
+    return Verification(policy, i.memo.get(("escalations", id(i.decision), wide, i.neural.info.get("used")),
+                                           escalations, i.decision))
 
 
 # ---------------------------------------------------------------- answer

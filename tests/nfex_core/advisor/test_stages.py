@@ -24,6 +24,7 @@ from nfex_core.advisor.stages import (
     AnswerIn,
     BudgetIn,
     ConditionsIn,
+    Memo,
     ParamsIn,
     ScoringIn,
     Settled,
@@ -142,7 +143,7 @@ def test_params_chain_gives_theta_per_candidate_from_the_rules_factors() -> None
     assert list(out.candidates) == ["SIFT", "ORB"] and not out.relative and not out.shaped_out
     assert out.candidates["ORB"].params["nfeatures"] == 1500 and out.candidates["ORB"].proposal.source == "rules"
     assert out.candidates["SIFT"].params == {"nfeatures": 1000}
-    memo: dict = {}  # type: ignore[type-arg]
+    memo = Memo()
     once = params(ParamsIn(_vocab(), TABLE, BRIGHT, {"light": "bright"}, None, SYMBOLIC, memo=memo))
     assert params(ParamsIn(_vocab(), TABLE, BRIGHT, {"light": "bright"}, None, SYMBOLIC, memo=memo)) is once
 
@@ -188,7 +189,7 @@ def test_budget_leaves_a_candidate_for_any_budget_and_never_lists_one_as_pruned(
 
 def test_scoring_without_a_frame_ranks_the_prior_bonus_plus_measured_accuracy() -> None:
     settled = _settle(BRIGHT, None)
-    memo: dict = {}  # type: ignore[type-arg]
+    memo = Memo()
     i = ScoringIn(_vocab(), lambda: None, BRIGHT, settled.candidates, SYMBOLIC, None, None, Scorer(), COST, memo=memo)
     out = scoring(i)
     assert out.mode == "prior" and out.state is None and out.scoring is not None and out.scoring.outcome == UNSCORED
@@ -207,7 +208,7 @@ def test_verification_without_a_budget_is_the_policy_alone() -> None:
 def test_verification_under_a_budget_offers_what_fits_the_cap_best_first() -> None:
     policy = Policy((AcceptRule((), (), _cite(N + "rule_accept", "inliers")),))
     decided = replace(BRIGHT, verification=policy)
-    memo: dict = {}  # type: ignore[type-arg]
+    memo = Memo()
     out = verification(VerificationIn(_vocab(), TABLE, decided, {"light": "bright"}, _budget(25.0), SYMBOLIC, memo))
     assert [c.extractor for c in out.escalations] == ["SIFT", "ORB"]  # 4 × 25 ms fits SIFT's 92 ms
     assert out.escalations[0].evidence.cost is not None and len(memo) == 1
@@ -273,3 +274,19 @@ def test_the_scoring_input_of_a_frame_needs_the_registry_only_with_a_frame() -> 
     settled = _settle(BRIGHT, None)
     out = scoring(ScoringIn(_vocab(), no_registry, BRIGHT, settled.candidates, SYMBOLIC, None, None, Scorer(), COST))
     assert [c.extractor for c in out.candidates] == ["SIFT", "ORB"]
+
+
+def test_the_memo_keeps_at_most_its_limit_and_answers_only_for_the_same_objects() -> None:
+    """A snapshot's memo stops keeping past its limit (a client's budgets and frame sizes cannot grow it), and a
+    key that names an object by id answers only for that object."""
+    memo = Memo(limit=3)
+    made: list[int] = []
+    for n in range(10):
+        assert memo.get(("budget", n), lambda n=n: made.append(n) or n) == n  # type: ignore[misc]
+    assert len(memo) == 3 and made == list(range(10))
+    assert memo.get(("budget", 0), lambda: -1) == 0 and memo.get(("budget", 9), lambda: -1) == -1
+    a, b = object(), object()
+    keyed = Memo()
+    assert keyed.get(("x", 1), lambda: "a's", a) == "a's"
+    assert keyed.get(("x", 1), lambda: "a's again", a) == "a's"
+    assert keyed.get(("x", 1), lambda: "b's", b) == "b's"  # the same key naming another object: made, not a's
