@@ -245,32 +245,39 @@ def scoring(i: ScoringIn) -> Scored:
         return Scored(ranked(i.decision, listed), None, "selectornet" if decided else "prior", how)
     # verification tries the first proposals in order: those must be scored, not only the winner
     top = i.decision.verification.max_tries if i.decision.verification.active else 1
+    first: Scoring | None = None  # a refreshed decision's single answer, where α* came out another
     if i.refresh is not None and top > 1 and not i.exhaustive:
-        kept = _refreshed(i, i.refresh)
+        kept, first = _refreshed(i, i.refresh)
         if kept is not None:
             return kept
     scored = i.scorer.on_frame(i.vocab, i.registry(), i.decision, Parameters(dict(i.candidates)), i.neural, i.image,
                                i.previous, i.exhaustive, i.cost, top, i.ranges)
+    if first is not None and scored.scoring is not None:  # the answer counts all the work it took
+        scored = replace(scored, scoring=replace(
+            scored.scoring, extractions=scored.scoring.extractions + first.extractions,
+            pixels=scored.scoring.pixels + first.pixels,
+            reason=f"{scored.scoring.reason} (after α* alone came out other than the decision due again)"))
     return replace(scored, candidates=ranked(i.decision, scored.candidates))
 
 
-def _refreshed(i: ScoringIn, due: Decided) -> Scored | None:
+def _refreshed(i: ScoringIn, due: Decided) -> tuple[Scored | None, Scoring | None]:
     """A session's decision due again while its evidence held (its verdicts accepted α*, its estimate unchanged):
     α* is scored on this frame as a single answer; where it is the decision's α* again, the proposals after it keep
     the order that decision scored them in (the pair has confirmed it since), so the others are not extracted.
-    None where α* changed: the frame is then scored for every proposal."""
+    Where α* changed: (None, what that single answer took); the frame is then scored for every proposal (a rare
+    case, whose extractions on this frame run again)."""
     assert i.image is not None
     scored = i.scorer.on_frame(i.vocab, i.registry(), i.decision, Parameters(dict(i.candidates)), i.neural, i.image,
                                i.previous, False, i.cost, 1, i.ranges)
     order = ranked(i.decision, scored.candidates)
     before = [c.extractor for c in due.selection.candidates]
     if not order or order[0].extractor != due.selection.extractor:
-        return None
+        return None, scored.scoring
     rest = sorted(order[1:], key=lambda c: before.index(c.extractor) if c.extractor in before else len(before))
     assert scored.scoring is not None
     how = replace(scored.scoring, reason=f"{scored.scoring.reason}; the proposals after {order[0].extractor} in the "
                   f"order the decision of {due.reused + 1} frame(s) ago scored them: its α* again, and its verdicts held")
-    return replace(scored, candidates=[order[0], *rest], scoring=how)
+    return replace(scored, candidates=[order[0], *rest], scoring=how), None
 
 
 def _carried(i: ScoringIn, decided: Decided) -> Scored:

@@ -204,3 +204,31 @@ def test_a_verified_session_due_again_keeps_its_proposals_order_while_the_pairs_
     again, work_again = run(False)
     assert again[4].reused == 0 and again[4].scoring is not None and "scored them" not in again[4].scoring.reason
     assert work < work_again
+
+
+def test_a_decision_due_again_whose_alpha_changed_scores_every_proposal_and_counts_all_it_took(
+        shipped_kg: KnowledgeGraph, data_dir: Path) -> None:
+    """Where the single answer of a decision due again names another α* than the decision's, the frame is scored for
+    every proposal in exact order, and ``scoring.extractions`` counts both passes (the registry's own count)."""
+    from dataclasses import replace
+
+    from nfex_core.rules.dsl import programs
+
+    text = (Path(__file__).resolve().parents[3] / "rules" / "verification" / "verification.nfex").read_text()
+    _, g = programs.compile_text(text, shipped_kg.vocabulary(), name="verification")
+    programs.apply(shipped_kg, g, "verification", author="test")
+    session_frames(shipped_kg, 4)
+    images = [cv2.imread(str(p), cv2.IMREAD_GRAYSCALE) for p in sorted((data_dir / FRAMES).glob("*.png"))[40:45]]
+    advisor = Advisor(shipped_kg, neural="symbolic")
+    registry = advisor.snapshot().registry
+    state = None
+    for image in images[:4]:
+        state = advisor.select({"agent": "car"}, image, state, session=True).state
+    assert state is not None and state.decided is not None and state.decided.reused == 3
+    other = next(c.extractor for c in state.decided.selection.candidates if c.extractor != state.decided.selection.extractor)
+    state = replace(state, decided=replace(state.decided, selection=replace(state.decided.selection, extractor=other)))
+    before = registry.work.totals()
+    sel = advisor.select({"agent": "car"}, images[4], state, session=True)
+    after = registry.work.totals()
+    assert sel.reused == 0 and sel.scoring is not None and "came out other than" in sel.scoring.reason
+    assert (sel.scoring.extractions, sel.scoring.pixels) == (after[0] - before[0], after[1] - before[1])
