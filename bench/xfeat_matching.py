@@ -48,7 +48,8 @@ from nfex_slam.trajectory.frontend import (  # noqa: E402
     rotation_errors,
 )
 from nfex_slam.vo.geometry import mutual_ratio_l2, relative_pose, undistort  # noqa: E402
-from scipy.stats import wilcoxon  # noqa: E402
+
+from nfex_core.evaluation.stats import compare  # noqa: E402
 
 COS = 0.82
 
@@ -191,15 +192,16 @@ def main() -> None:
     for key, errs in errors.items():
         e = np.array(errs)
         auc = pose_auc(e)
-        p = None if key == "SIFT ratio" or np.allclose(e, sift) else float(wilcoxon(e, sift).pvalue)
+        # the project's paired verdict (evaluation/stats.py): better or worse only where Wilcoxon's p < 0.05
+        vs_sift = None if key == "SIFT ratio" else compare(list(e), list(sift), "SIFT ratio")
         rows.append({"arm": key, "auc": {str(k): v for k, v in auc.items()}, "median_error_deg": float(np.median(e)),
-                     "median_inliers": float(np.median(inliers[key])), "p_vs_sift": p, "errors_deg": e.tolist()})
-        vs = "" if p is None else f"p = {p:.3g} ({'worse' if np.median(e - sift) > 0 else 'better'})"
+                     "median_inliers": float(np.median(inliers[key])),
+                     "p_vs_sift": vs_sift.p_wilcoxon if vs_sift else None, "errors_deg": e.tolist()})
+        vs = "" if vs_sift is None else f"p = {vs_sift.p_wilcoxon:.3g} ({vs_sift.verdict})"
         if key in base:
-            b = np.array(errors[base[key]])
-            pb = float(wilcoxon(e, b).pvalue)
-            rows[-1]["p_vs_base"] = {"base": base[key], "p": pb}
-            vs += f"; vs {base[key]}: p = {pb:.3g} ({'worse' if np.median(e - b) > 0 else 'better'})"
+            vs_base = compare(list(e), errors[base[key]], base[key])
+            rows[-1]["p_vs_base"] = {"base": base[key], "p": vs_base.p_wilcoxon}
+            vs += f"; vs {base[key]}: p = {vs_base.p_wilcoxon:.3g} ({vs_base.verdict})"
         print(f"{key:26s} {auc[AUC_THRESHOLDS[0]]:6.3f} {auc[AUC_THRESHOLDS[1]]:6.3f} {auc[AUC_THRESHOLDS[2]]:6.3f} "
               f"{np.median(e):10.3f} {np.median(inliers[key]):8.0f}  {vs}")
     if args.out:
