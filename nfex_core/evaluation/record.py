@@ -41,9 +41,5 @@ class RunRecord:
     front: FrontEnd | None = field(default=None, repr=False)
 
     @property
-    def ms_per_frame(self) -> float:
-        return self.extraction_ms + self.matching_ms
-
-    @property
     def key(self) -> str:
         return self.method if self.budget_ms is None else f"{self.method}@{self.budget_ms:g}ms"

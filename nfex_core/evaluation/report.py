@@ -48,11 +48,6 @@ def _budget(key: str) -> float | None:
     return float(key.partition("@")[2].removesuffix("ms")) if "@" in key else None
 
 
-def reference_for(ev: Evaluation, key: str, condition: str) -> str | None:
-    """What ``key`` is compared with: the best static method (that fits its budget, if it has one)."""
-    return ev.best_static(condition, _budget(key))
-
-
 def comparison(ev: Evaluation, key: str, condition: str, figure: Figure = BY_NAME["ate"]) -> Comparison | None:
     """``key`` against the best static method by ``figure`` (that fits its budget, if it has one)."""
     ref = ev.best_static(condition, _budget(key), figure)

@@ -18,8 +18,8 @@ from nfex_core.vision.registry import ExtractorRegistry
 
 K = np.array([[500.0, 0, 320], [0, 500, 240], [0, 0, 1]])
 
-# the seed spread (std/mean of the monocular ATE over RANSAC seeds) the map is held to (issue 40; docs/vo.md has the
-# measured spreads)
+# the seed spread (std/mean of the monocular ATE over RANSAC seeds) the map is held to (docs/vo.md has the measured
+# spreads)
 SEED_SPREAD = 0.25
 
 
