@@ -92,16 +92,22 @@ SCHEME = HTTPBearer(
 )
 
 
+def token_of(request: Request) -> tuple[bool, Token | None]:
+    """(whether ``Authorization`` is a well-formed ``Bearer <token>``, the valid token it names or None)."""
+    scheme, _space, given = (request.headers.get("authorization") or "").strip().partition(" ")
+    if scheme.lower() != "bearer" or not given.strip():
+        return False, None
+    book: TokenBook = request.app.state.tokens
+    return True, book.find(given.strip())
+
+
 async def bearer(request: Request, _: Annotated[HTTPAuthorizationCredentials | None, Depends(SCHEME)]) -> Token | None:
     """The token behind ``Authorization: Bearer <token>``; None without the header; 401 when it is not valid."""
-    authorization = request.headers.get("authorization")
-    if not authorization:
+    if not request.headers.get("authorization"):
         return None
-    scheme, _space, given = authorization.strip().partition(" ")
-    if scheme.lower() != "bearer" or not given.strip():
+    well_formed, found = token_of(request)
+    if not well_formed:
         raise Unauthorized("the Authorization header must be 'Bearer <token>'")
-    book: TokenBook = request.app.state.tokens
-    found = book.find(given.strip())
     if found is None:
         raise Unauthorized("the bearer token is not valid")
     return found

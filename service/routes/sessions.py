@@ -17,23 +17,23 @@ from ..frames import read_select
 from ..schemas import PROBLEM_RESPONSES, Session, SessionCreate, SessionSelection, problems
 from ..schemas.requests import TriedCandidate, VerdictRequest
 from ..schemas.selection import Verdict
+from ..security import token_of
 
 router = APIRouter(prefix="/v1/sessions", tags=["sessions"])
 
 
 @router.post("", status_code=201, summary="Open a frame stream", response_model=Session, responses={**PROBLEM_RESPONSES, **problems(429)})
 def create_session(body: SessionCreate, sessions: SessionsDep, advisor: AdvisorDep, request: Request) -> dict[str, Any]:
-    context = advisor.snapshot().vocab.check_context(body.context)
-    owner = _owner(request)
-    s = sessions.create(context, body.client, owner, PairJudge(advisor.snapshot().table.budget_terms))
+    snap = advisor.snapshot()
+    context = snap.vocab.check_context(body.context)
+    s = sessions.create(context, body.client, _owner(request), PairJudge(snap.table.budget_terms))
     return s.as_dict(sessions.ttl_s, sessions.clock())
 
 
 def _owner(request: Request) -> str:
     """Who opens a session, for the per-client limit: a valid token's name, else the client's address. Read
     here, not as a dependency: opening a session needs no token (the OpenAPI document says so)."""
-    scheme, _, given = (request.headers.get("authorization") or "").strip().partition(" ")
-    token = request.app.state.tokens.find(given.strip()) if scheme.lower() == "bearer" and given.strip() else None
+    _, token = token_of(request)
     return f"token {token.name}" if token is not None else f"address {request.client.host if request.client else '?'}"
 
 
