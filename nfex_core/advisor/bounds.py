@@ -41,7 +41,7 @@ def score_bounds(decision: Decision, specs: Mapping[str, MetricSpec], metric_nam
     """(low, high) of F_metrics + H·A for ``extractor`` before extraction, over the ``metric_names`` it will have
     that the graph knows (``specs``), each metric's raw value in its ``spans`` entry (default [0, 1], the sound
     bound), oriented as fitness.oriented turns it (module docstring)."""
-    bonus = decision.bonuses[extractor].value if extractor in decision.bonuses else 0.0
+    bonus = decision.bonus(extractor)
     low = high = bonus + weight * accuracy
     for m in metric_names:
         if m not in specs:

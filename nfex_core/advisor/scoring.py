@@ -162,7 +162,7 @@ class Scorer:
             if owed and prev is not None:
                 tally.add(prev[1].size)
             metrics = compute_metrics(feats, small, prev)
-            bonus = decision.bonuses[c.extractor].value if c.extractor in decision.bonuses else 0.0
+            bonus = decision.bonus(c.extractor)
             f = f_metrics(metrics, decision.weights, vocab.metrics, bonus)
             a = accuracy.get(c.extractor, 0.0)
             return CandidateScore(
@@ -274,7 +274,7 @@ class Scorer:
             elif c.extractor == alpha:
                 low = final[alpha][0]
                 base = unscored(decision, c, skipped[alpha])
-                listed.append(replace(base, score=low, bonus=decision.bonuses[alpha].value if alpha in decision.bonuses else 0.0,
+                listed.append(replace(base, score=low, bonus=decision.bonus(alpha),
                                       evidence=replace(base.evidence, measured_accuracy=accuracy.get(alpha, 0.0))))
             else:
                 listed.append(unscored(decision, c, skipped[c.extractor]))
@@ -341,7 +341,7 @@ def prior_scores(decision: Decision, params: Parameters) -> list[CandidateScore]
     accuracy = measured_accuracy(decision, params.candidates)
     out = []
     for c in params.candidates.values():
-        bonus = decision.bonuses[c.extractor].value if c.extractor in decision.bonuses else 0.0
+        bonus = decision.bonus(c.extractor)
         out.append(CandidateScore(extractor=c.extractor, params=c.params, score=bonus + accuracy.get(c.extractor, 0.0),
                                   bonus=bonus, adjustments=c.adjustments, evidence=evidence_of(decision, c)))
     return out

@@ -249,3 +249,7 @@ class Decision:
     evidence: Mapping[str, Evidence] = field(default_factory=dict)
     shapes: tuple[CompiledShape, ...] = ()  # context shapes whose gate holds here (rules/shape_check.py)
     verification: Policy = NO_POLICY  # how a frame pair's estimate is judged here (verification/judge.py)
+
+    def bonus(self, extractor: str) -> float:
+        """The preference bonus of ``extractor`` here (0 without one)."""
+        return self.bonuses[extractor].value if extractor in self.bonuses else 0.0
