@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import json
 import os
+import socket
 import subprocess
 import sys
 import sysconfig
+import time
 from pathlib import Path
 
+import httpx
 import pytest
 
 REPO = Path(__file__).resolve().parent.parent
@@ -84,3 +87,36 @@ kg.close()
     out = json.loads(_run([str(python), "-c", check], cwd=work, env=env).stdout.strip().splitlines()[-1])
     assert out["same"] and not out["conforms"] and out["fallbacks"] == 0 and out["starts"] == 1
     assert Path(out["package"]).is_relative_to(venv), out["package"]
+
+    # a stranger's first `nfex serve`: an empty HOME, no NFEX_STORE; /sparql is answered through a query worker
+    # process that the wheel's python starts (its store and checkpoints under that HOME)
+    home = tmp_path / "empty-home"
+    home.mkdir()
+    serve_env = {k: v for k, v in env.items() if k != "NFEX_STORE"} | {"HOME": str(home)}
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    log = (tmp_path / "serve.log").open("w")
+    svc = subprocess.Popen([str(venv / "bin" / "nfex"), "serve", "--port", str(port)], cwd=work, env=serve_env,
+                           stdout=log, stderr=subprocess.STDOUT)
+    try:
+        base = f"http://127.0.0.1:{port}"
+        deadline = time.monotonic() + 240
+        while True:
+            assert svc.poll() is None, (tmp_path / "serve.log").read_text()[-3000:]
+            try:
+                if httpx.get(base + "/readyz", timeout=5).status_code == 200:
+                    break
+            except httpx.HTTPError:
+                pass
+            assert time.monotonic() < deadline, (tmp_path / "serve.log").read_text()[-3000:]
+            time.sleep(0.5)
+        r = httpx.get(base + "/sparql", params={"query": "ASK { <https://w3id.org/nfex#ORB> a <https://w3id.org/nfex#FeatureExtractor> }"},
+                      headers={"Accept": "application/sparql-results+json"}, timeout=60)
+        assert r.status_code == 200 and r.json()["boolean"] is True, r.text
+        assert any(p.name.endswith(".query-checkpoints") for p in home.rglob("*.query-checkpoints")), \
+            sorted(str(p) for p in home.rglob("*"))[:20]
+    finally:
+        svc.terminate()
+        svc.wait(timeout=60)
+        log.close()
