@@ -176,6 +176,7 @@ def main() -> None:
         rev = subprocess.run(["git", "-C", code, "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
     except OSError:
         rev = ""
+    rev = rev or "revision unknown: not a git checkout, say which in the results"
     print(f"code {code} ({rev}), scale {args.scale or 'default'}, {args.runs} runs per cell, no front-end checks")
     _print(results)
     if args.out:
