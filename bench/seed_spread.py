@@ -1,10 +1,11 @@
 """Seed spread of the VO's monocular ATE: std/mean over runs that differ only by the RANSAC seed.
 
     python bench/seed_spread.py [--code CHECKOUT] [--scale map|triangulated|...] [--sequences 00,01,07]
-        [--configs SIFT,ORB_GRID] [--runs 10] [--frames N] [--jobs 16] [--out spread.json]
+        [--configs SIFT,ORB_GRID] [--runs 10] [--frames N] [--checks] [--jobs 16] [--out spread.json]
 
 For each KITTI sequence and configuration (the extractor's defaults) it runs ``run_vo`` ``--runs`` times with
-``VOParams(seed=r)``, r = 0 … runs−1, no front-end checks, over the whole shared sequence (or its first ``--frames``),
+``VOParams(seed=r)``, r = 0 … runs−1, no front-end checks (``--checks``: the sequence's agent's, as ``nfex evaluate``
+applies them by default), over the whole shared sequence (or its first ``--frames``),
 and reports per cell the Sim(3) ATE RMSE of each run, their mean, std and spread = std/mean (population std), and
 the lost pairs. ``--code`` is the checkout whose ``nfex_core`` and ``nfex_slam`` run (default: this one), so the
 same script measures another implementation, e.g. main's; ``--scale`` is passed to ``VOParams`` only when given
@@ -58,7 +59,8 @@ class _Cached:
         return self.registry.resolve(name, params)
 
 
-def cell(code: str, data: str, sequence: str, extractor: str, runs: int, frames: int | None, scale: str | None) -> dict[str, Any]:
+def cell(code: str, data: str, sequence: str, extractor: str, runs: int, frames: int | None, scale: str | None,
+         checks: bool = False) -> dict[str, Any]:
     """Every run of one (sequence, configuration) cell in this process."""
     _use(code)
     import numpy as np
@@ -68,8 +70,14 @@ def cell(code: str, data: str, sequence: str, extractor: str, runs: int, frames:
     from nfex_core.knowledge import open_graph
     from nfex_core.vision.registry import ExtractorRegistry
 
-    registry = _Cached(ExtractorRegistry.from_vocabulary(open_graph(tempfile.mkdtemp(prefix="nfex-spread-")).vocabulary()))
+    kg = open_graph(tempfile.mkdtemp(prefix="nfex-spread-"))
+    registry = _Cached(ExtractorRegistry.from_vocabulary(kg.vocabulary()))
     seq = open_sequence(data, "kitti", sequence)
+    step_checks: Any = None
+    if checks:  # the sequence's agent's front-end checks, as nfex evaluate applies them by default
+        from nfex_core.rules.engine import RuleEngine
+
+        step_checks = RuleEngine(kg).table().step_checks.get(seq.context.get("agent") or "")
     n = len(seq) if frames is None else min(frames, len(seq))
     loaded = [seq[i] for i in range(n)]  # decode once for every run
     assert seq.poses is not None
@@ -79,7 +87,8 @@ def cell(code: str, data: str, sequence: str, extractor: str, runs: int, frames:
     for r in range(runs):
         t0 = time.perf_counter()
         params = VOParams(seed=r) if scale is None else VOParams(seed=r, scale=scale)
-        res = run_vo(mem, fixed(extractor), registry=registry, params=params)
+        res = run_vo(mem, fixed(extractor), registry=registry, params=params,
+                     **({"checks": step_checks} if step_checks is not None else {}))
         ate = window_errors(mem, res)[0]
         out.append({"seed": r, "ate": ate, "lost": res.lost_count, "failed": res.failed, "s": time.perf_counter() - t0})
         print(f"{sequence} {extractor.lower()}-default seed {r}: ATE {ate if ate is None else round(ate, 3)} m, "
@@ -156,6 +165,7 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=None)
     ap.add_argument("--scale", default=None, help="VOParams.scale (default: the checkout's own default)")
     ap.add_argument("--jobs", type=int, default=1)
+    ap.add_argument("--checks", action="store_true", help="the sequence's agent's front-end checks (nfex evaluate's default)")
     ap.add_argument("--out", default=None, help="write the cells as JSON here")
     ap.add_argument("--summarise", nargs="+", default=None, metavar="FILE",
                     help="print the table from runs' stderr lines or --out JSON files")
@@ -170,18 +180,19 @@ def main() -> None:
     data = args.data or str(Path(os.environ.get("NFEX_DATA", ROOT.parent / "shared" / "data")) / "kitti")
     cells = [(s, x) for s in args.sequences.split(",") for x in args.configs.split(",")]
     with ProcessPoolExecutor(max_workers=args.jobs, mp_context=get_context("spawn")) as pool:
-        futures = [pool.submit(cell, code, data, s, x, args.runs, args.frames, args.scale) for s, x in cells]
+        futures = [pool.submit(cell, code, data, s, x, args.runs, args.frames, args.scale, args.checks) for s, x in cells]
         results = [f.result() for f in futures]
     try:
         rev = subprocess.run(["git", "-C", code, "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
     except OSError:
         rev = ""
     rev = rev or "revision unknown: not a git checkout, say which in the results"
-    print(f"code {code} ({rev}), scale {args.scale or 'default'}, {args.runs} runs per cell, no front-end checks")
+    print(f"code {code} ({rev}), scale {args.scale or 'default'}, {args.runs} runs per cell, "
+          + ("the agent's front-end checks" if args.checks else "no front-end checks"))
     _print(results)
     if args.out:
         Path(args.out).write_text(json.dumps({"code": code, "revision": rev, "scale": args.scale, "runs": args.runs,
-                                              "cells": results}, indent=1))
+                                              "checks": args.checks, "cells": results}, indent=1))
 
 
 if __name__ == "__main__":

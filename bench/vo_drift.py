@@ -7,7 +7,7 @@ Runs ``run_vo`` once (``VOParams(seed, scale)``, no front-end checks) over a who
 frame k: the step length ‖c_k − c_k−1‖ over the truth's, divided by the run's median of that ratio (1 where the
 scale holds); the rotation error of the pose, ∠(R_0ᵀR_k, R*_0ᵀR*_k) in degrees; the same for the accepted pairs'
 two-view estimates chained (``FrameRecord.estimate``, lost pairs skipped); and how the frame was placed
-(``FrameRecord.located``: p = PnP, e = essential matrix, - = first or lost). It shows where a run's scale or heading
+(``FrameRecord.located``: p = PnP, e = essential matrix, r = the map started again, - = first or lost). It shows where a run's scale or heading
 goes, and whether the map or the pairs took it there. ``--rotation-sigma-deg`` sets ``VOParams.rotation_sigma_deg``
 (0: the window's adjustment without the pairs' rotations).
 """
@@ -61,7 +61,7 @@ def main() -> None:
         if k % args.every == 0 or k == len(res.frames) - 1:
             rot = _angle(res.poses[k, :3, :3].T @ gt[k, :3, :3])
             pairs = _angle(chained.T @ gt[k, :3, :3])
-            placed = {"pnp": "p", "essential": "e"}.get(f.located, "-")
+            placed = {"pnp": "p", "essential": "e", "restart": "r"}.get(f.located, "-")
             print(f"{f.index:5d} {ratio[k - 1]:10.2f} {rot:8.2f} {pairs:13.2f} {placed:>6}")
 
 

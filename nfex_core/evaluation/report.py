@@ -150,7 +150,8 @@ def markdown(ev: Evaluation) -> str:
         "A difference is claimed only where Wilcoxon's signed-rank p < 0.05; 'detectable' is the smallest relative "
         "difference these runs could have detected (α = 0.05, 80 % power). A run fails on loss beyond 30 % of its pairs "
         f"or coasting beyond {_num(ev.max_coasted, '.0%') if ev.max_coasted is not None else '—'} (nfex:maxCoastedFraction)"
-        + (f"; {ev.control}" if ev.control else "") + ".")
+        + (f"; {ev.control}" if ev.control else "") + "."
+        + "".join(f" Not run on this sequence: {m} ({why})." for m, why in ev.skipped.items()))
     return "\n".join(lines) + "\n"
 
 
@@ -301,6 +302,7 @@ def as_json(ev: Evaluation) -> dict[str, Any]:
     return {
         "dataset": ev.dataset, "sequence": ev.sequence, "frames": ev.frames, "runs": ev.runs, "severity": ev.severity,
         "schedule": ev.schedule.text if ev.schedule else None, "checks": ev.checks, "evidence": ev.scope,
+        "skipped": ev.skipped,
         "conditions": ev.conditions, "statistics": "mean, 95 % CI (Student t), Wilcoxon signed-rank and paired t "
         "against the best static method over paired runs",
         "best_static": {c: ev.best_static(c) for c in ev.conditions},

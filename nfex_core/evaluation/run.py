@@ -11,6 +11,10 @@
   graph (``motion.StepChecks``), unless ``checks`` is False.
 - **Oracles** (``oracle``): the hindsight choices over the static methods' own pair estimates (``oracle``).
 
+- **Shared work.** Every method and run of a sequence extracts and matches through one ``nfex_slam.vo.Reusing``:
+  a configuration's features of an image, and the matches of two such extractions, are computed once — paired
+  runs of a clean sequence see the same images — and reused with the time they took when computed.
+
 - **The motion-prior control** (``outcomes``): in every condition and run, the first tracked step of the first
   static method repeated at constant velocity — what coasting alone gives.
 
@@ -32,12 +36,21 @@ import numpy as np
 from nfex_slam.datasets.base import Sequence
 from nfex_slam.datasets.schedule import SCHEDULE, Schedule, under
 from nfex_slam.motion import NO_CHECKS, StepChecks
-from nfex_slam.vo import VOParams, VOResult, run_vo
+from nfex_slam.vo import Reusing, VOParams, VOResult, run_vo
 
 from ..kg.rdf.identity import sequence_iri
 from ..kg.scope import EvidenceScope, scoped_graph
 from .figures import ATE, Figure, rank
-from .methods import NFEX, ORACLES, TUNED, AdvisorChooser, DynChooser, chooser_for, static_methods
+from .methods import (
+    NFEX,
+    ORACLES,
+    TUNED,
+    AdvisorChooser,
+    DynChooser,
+    chooser_for,
+    static_methods,
+    tuned_static,
+)
 from .oracle import per_pair, per_segment, replay
 from .outcomes import MOTION_PRIOR, Outcomes, frontend, max_coasted_fraction, motion_prior
 from .record import RunRecord
@@ -63,6 +76,7 @@ class Evaluation:
     static: list[str] = field(default_factory=list)
     max_coasted: float | None = None  # nfex:maxCoastedFraction as read from the graph
     control: str = ""  # where the motion-prior control's step comes from
+    skipped: dict[str, str] = field(default_factory=dict)  # method → why it could not run on this sequence
 
     @property
     def label(self) -> str:
@@ -157,11 +171,13 @@ def evaluate(
     view = scoped_graph(kg, scope)
     vocab = view.vocabulary()
     table = RuleEngine(view).table()
-    registry = ExtractorRegistry.from_vocabulary(vocab)
+    registry = Reusing(ExtractorRegistry.from_vocabulary(vocab))  # paired runs share extractions and matches
     advisor = Advisor(view, scope=scope) if NFEX in methods or budgets else None
     agent = seq.context.get("agent")
     step_checks = table.step_checks.get(agent or "", NO_CHECKS) if checks else NO_CHECKS
     conditions = [*corruptions, *([SCHEDULE] if sched else [])]
+    skipped = _without_evidence(methods, table)
+    methods = [m for m in methods if m not in skipped]
     static = [m for m in methods if m in static_methods(vocab)]
     jobs: list[tuple[str, float | None]] = [(m, None) for m in methods] + [(NFEX, b) for b in budgets]
     n_oracle = len(ORACLES) if oracle and static else 0
@@ -203,7 +219,21 @@ def evaluate(
     return Evaluation(seq.dataset, seq.name, len(seq), records, gt, conditions, sched, severity, runs,
                       _describe(step_checks), scope.describe(), [m for m in static if m in methods], trial.max_coasted,
                       f"{MOTION_PRIOR}: the first tracked step of {prior_from}, repeated at constant velocity"
-                      if prior_from else "")
+                      if prior_from else "", skipped)
+
+
+def _without_evidence(methods: Seq[str], table: Any) -> dict[str, str]:
+    """The methods that the evidence in scope cannot form (tuned static, where no configuration measured outside the
+    held-out sequence is left), with why: they are left out of this sequence's tables, not the whole study."""
+    from ..errors import BadInput
+
+    if TUNED not in methods:
+        return {}
+    try:
+        tuned_static(table)
+    except BadInput as e:
+        return {TUNED: str(e)}
+    return {}
 
 
 class _Trial:

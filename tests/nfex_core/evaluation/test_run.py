@@ -69,3 +69,33 @@ def test_the_same_seed_gives_the_same_run(bare_kg: KnowledgeGraph, seq) -> None:
 def test_checks_can_be_turned_off(bare_kg: KnowledgeGraph, seq) -> None:  # type: ignore[no-untyped-def]
     ev = evaluate(seq, bare_kg, methods=["orb-default"], runs=1, checks=False)
     assert ev.checks == "off"
+
+
+def test_paired_runs_extract_each_frame_once_per_configuration(bare_kg: KnowledgeGraph, seq, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    from nfex_core.vision.registry import ExtractorRegistry
+
+    calls: list[str] = []
+    real = ExtractorRegistry.extract
+
+    def counted(self, name, image, params=None):  # type: ignore[no-untyped-def]
+        calls.append(name)
+        return real(self, name, image, params)
+
+    monkeypatch.setattr(ExtractorRegistry, "extract", counted)
+    ev = evaluate(seq, bare_kg, methods=["orb-default", "sift-default"], runs=3, checks=False)
+    # the clean frames are the same in every run: ORB and SIFT once per frame, whatever the runs and the control
+    assert sorted(calls) == sorted(["ORB"] * len(seq) + ["SIFT"] * len(seq))
+    assert {r.run for r in ev.records} == {0, 1, 2}
+    # under a corruption drawn per run, each run's frames are new
+    calls.clear()
+    evaluate(seq, bare_kg, methods=["orb-default"], runs=2, corruptions=["dark"], checks=False)
+    assert len(calls) == 2 * len(seq)
+
+
+def test_a_method_the_evidence_in_scope_cannot_form_is_left_out_of_that_sequence(bare_kg: KnowledgeGraph, seq) -> None:  # type: ignore[no-untyped-def]
+    # nothing measured: tuned static has no configuration to be, and the other methods still run
+    ev = evaluate(seq, bare_kg, methods=["orb-default", "tuned-static"], runs=1, checks=False)
+    assert set(ev.keys()) == {"orb-default", "motion-prior"}
+    assert "needs measured configurations" in ev.skipped["tuned-static"]
+    assert "Not run on this sequence: tuned-static (" in markdown(ev)
+    assert as_json(ev)["skipped"] == ev.skipped

@@ -7,7 +7,7 @@ For each frame k (DESIGN.md, "Evaluation"; the paper's §V runs its extractors i
 2. the frame's features are extracted with (α, Θ′); when the choice differs from frame k−1's, frame
    k−1 is re-extracted with it so that the descriptors are comparable (its cost is counted in frame
    k's extraction time — a real front end would pay it too);
-3. ratio-test matching with the extractor's norm, essential matrix with RANSAC, ``recoverPose``
+3. ratio-test matching with the extractor's norm, essential matrix with MAGSAC++, ``recoverPose``
    (``geometry``, ``twoview``): the pair's estimate (R, unit t), which the front-end checks and the judge see and
    ``FrameRecord.estimate`` keeps, whichever way the trajectory is then scaled;
 4. the accepted pair places frame k.
@@ -56,7 +56,8 @@ from .twoview import ScaleChain, Try, try_pair
 
 class Extractors(Protocol):
     """What the VO runs a choice with: the server's graph-built registry (nfex_core.vision.registry), or a
-    client's recipes from the service's selections (``nfex_slam.replay.SelectionExtractors``)."""
+    client's recipes from the service's selections (``nfex_slam.replay.SelectionExtractors``). One that also has
+    ``match(a, b, ratio)`` matches the frame pairs (``reuse.Reusing``, which computes each match once)."""
 
     def extract(self, name: str, image: np.ndarray, params: Mapping[str, Any] | None = None) -> Features: ...
 
@@ -126,7 +127,8 @@ class FrameRecord:
     parallax_px: float = 0.0
     tries: int = 1  # candidates tried on this pair (verification; extraction and matching ms count them all)
     verdict: dict[str, Any] | None = field(default=None, compare=False)  # verification.Verdict.as_dict()
-    located: str = ""  # how the local map placed the frame: "pnp" | "essential" ("" without a map, or lost)
+    located: str = ""  # how the local map placed the frame: "pnp" | "essential" | "restart" (the map, just started,
+    # disagreed with this pair and started again on it) ("" without a map, or lost)
     map_points: int = 0  # PnP inliers among the map's points
 
     @property

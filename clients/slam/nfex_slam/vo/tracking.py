@@ -2,7 +2,11 @@
 
 For an accepted pair (frame k−1, frame k) whose two-view estimate passed the checks and the judge:
 
-1. With no map yet, frame k−1 becomes its first keyframe (its pose is known: the identity at the start).
+1. With no map yet, frame k−1 becomes its first keyframe (its pose is known: the identity at the start). A map just
+   started is on trial: where its first PnP placement turns from frame k−1 to frame k by more than the window's
+   bound on a pair's rotation (√7.815 σ_R) away from the pair's own estimate, the start pair was wrong — the points
+   triangulated from it are distorted, and every placement on them would follow the distortion — and the map is
+   given up and started again from frame k−1 (``_restart``); the frames placed so far keep their poses.
 2. Where the pair's configuration is not the map's, the last two keyframes are re-extracted with it and their
    matches triangulated at their known poses (``LocalMap.switch``); the extractions count in frame k's cost.
 3. Frame k is matched against the last keyframe (the pair's own matches where frame k−1 is that keyframe) and
@@ -20,12 +24,12 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import cv2
 import numpy as np
 
 from ..datasets.base import Frame, Sequence
 from ..features import Features
-from .geometry import match, triangulate, undistort
+from .bundle import HUBER_ROTATION
+from .geometry import match, relative_pose, triangulate, undistort
 from .localmap import Keyframe, LocalMap, keypoint_sigma
 
 if TYPE_CHECKING:
@@ -36,9 +40,9 @@ if TYPE_CHECKING:
 class MapTracker:
     def __init__(self, seq: Sequence, p: VOParams, registry: Extractors) -> None:
         self.seq, self.p, self.registry = seq, p, registry
-        self.map = LocalMap(seq.intrinsics.K, window=p.window, fixed=p.window_fixed, min_angle_deg=p.min_angle_deg,
-                            ba_iterations=p.ba_iterations,
-                            rotation_sigma=None if p.rotation_sigma_deg is None else float(np.radians(p.rotation_sigma_deg)))
+        self.map = self._new_map()
+        self.retired: dict[int, np.ndarray] = {}  # the keyframe poses of maps given up (their frames stay anchored)
+        self.on_trial = False  # a map just started, whose first PnP placement is checked against its pair
         self.length = 1.0  # the last step's length in the map's scale: the essential matrix's fallback
         self.anchors: dict[int, tuple[int, np.ndarray]] = {}  # frame index → (keyframe id, T_kf⁻¹ · T_k)
         self.start: Keyframe | None = None  # the frame the map will start from, with no map yet
@@ -75,10 +79,9 @@ class MapTracker:
         if located is not None:
             T = located[0]
         else:
-            R, unit = self._essential(prev_cache[key], taken.feats, step)
             forward = np.eye(4)  # camera k-1 → camera k
-            forward[:3, :3] = R
-            forward[:3, 3] = (self.length if moved else 0.0) * unit
+            forward[:3, :3] = step.R
+            forward[:3, 3] = (self.length if moved else 0.0) * step.t
             T = prev_pose @ np.linalg.inv(forward)
         # the window's points projected where the first pose puts them find the keypoints the matches missed
         found = self.map.search(T, key, taken.feats, xy, radius=p.search_radius_px, ratio=p.ratio,
@@ -87,6 +90,11 @@ class MapTracker:
         again = self._gate(self.map.locate(xy, both, min_points=p.min_map_points, min_inliers=p.min_inliers), prev_pose, moved)
         if again is not None:
             T, located = again[0], again
+        if self.on_trial and located is not None:
+            self.on_trial = False
+            if self._disagrees(prev_pose, T, step.R):
+                T, _, match_ms, _, _ = self._restart(frame, taken, prev, prev_cache, prev_pose)
+                return T, extra_ms, match_ms, "restart", 0
         how = "pnp" if located is not None else "essential"
         inliers = len(located[1]) if located is not None else 0
         if moved:
@@ -114,10 +122,11 @@ class MapTracker:
     def trajectory(self, indices: list[int], poses: np.ndarray) -> np.ndarray:
         """The run's poses with every anchored frame moved with its keyframe's refinement."""
         out = poses.copy()
+        keyframes = {**self.retired, **self.map.poses}
         for n, i in enumerate(indices):
             if i in self.anchors:
                 kf, rel = self.anchors[i]
-                out[n] = self.map.poses[kf] @ rel
+                out[n] = keyframes[kf] @ rel
         return out
 
     def _start(self, frame: Frame, taken: Try, prev: Frame, prev_cache: dict[str, Features],
@@ -133,11 +142,10 @@ class MapTracker:
         p, key = self.p, taken.choice.key
         moved = step.parallax_px >= p.still_px
         xy = self._xy(taken.feats)
-        pair = self._two_view(self._xy(prev_cache[key]), xy, *step.matches)
-        R, unit = (pair[0], pair[1]) if pair is not None else (step.R, step.t)
+        pair: tuple[np.ndarray, np.ndarray, np.ndarray] | None = (step.R, step.t, self._inlying(step))
         forward = np.eye(4)  # camera k-1 → camera k
-        forward[:3, :3] = R
-        forward[:3, 3] = (self.length if moved else 0.0) * unit
+        forward[:3, :3] = step.R
+        forward[:3, 3] = (self.length if moved else 0.0) * step.t
         T = prev_pose @ np.linalg.inv(forward)
         if self.start is None or self.start.key != key:
             feats = prev_cache[key]
@@ -168,8 +176,32 @@ class MapTracker:
             self.map.relate(s.id, kf.id, self.turned)
         self.start = None
         self.turned = np.eye(3)
+        self.on_trial = True
         self.anchor(frame.index, T)
         return T, 0.0, match_ms, "essential", 0
+
+    def _disagrees(self, prev_pose: np.ndarray, T: np.ndarray, R_pair: np.ndarray) -> bool:
+        """Whether the rotation from frame k−1 to frame k that the map's placement gives differs from the pair's own
+        estimate by more than the window's bound on a pair's rotation (√7.815 σ_R, χ² with 3 degrees of freedom at
+        95 %: 0.53° on KITTI)."""
+        R_map = T[:3, :3].T @ prev_pose[:3, :3]  # x_k = R x_k−1 + t, as the pair's R
+        cos = (np.trace(R_map @ R_pair.T) - 1) / 2
+        return float(np.arccos(np.clip(cos, -1.0, 1.0))) > HUBER_ROTATION * self.map.rotation_sigma
+
+    def _restart(self, frame: Frame, taken: Try, prev: Frame, prev_cache: dict[str, Features],
+                 prev_pose: np.ndarray) -> tuple[np.ndarray, float, float, str, int]:
+        """Give the map up and start again from frame k−1 at the pose it has (``_start``); the frames placed so far
+        keep their poses."""
+        self.retired.update(self.map.poses)
+        self.map = self._new_map()
+        self.start = None
+        return self._start(frame, taken, prev, prev_cache, prev_pose)
+
+    def _new_map(self) -> LocalMap:
+        p = self.p
+        return LocalMap(self.seq.intrinsics.K, window=p.window, fixed=p.window_fixed, min_angle_deg=p.min_angle_deg,
+                        ba_iterations=p.ba_iterations,
+                        rotation_sigma=None if p.rotation_sigma_deg is None else float(np.radians(p.rotation_sigma_deg)))
 
     def _parallax_points(self, x0: np.ndarray, x1: np.ndarray, R: np.ndarray, t: np.ndarray) -> int:
         """How many correspondences triangulate in front of both cameras ([I|0], [R|t]) with rays ``start_angle_deg``
@@ -185,18 +217,15 @@ class MapTracker:
 
     def _two_view(self, xa: np.ndarray, xb: np.ndarray, q: np.ndarray,
                   t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-        """R, unit t and the inlier mask of matches (q, t) between undistorted keypoints ``xa`` and ``xb`` by MAGSAC++
-        (Barath et al. 2020; ``cv2.USAC_MAGSAC``) and ``recoverPose``; None where it finds no model. The map starts
-        and falls back on it: RANSAC's draw among near-equal models of one pair is what made two-view runs spread."""
-        if len(q) < 5:
-            return None
-        p1, p2 = xa[q], xb[t]
-        K = self.seq.intrinsics.K
-        E, mask = cv2.findEssentialMat(p1, p2, K, method=cv2.USAC_MAGSAC, prob=0.999, threshold=self.p.ransac_threshold_px)
-        if E is None or mask is None or E.shape != (3, 3):
-            return None
-        _, R, tt, pose_mask, _ = cv2.recoverPose(E, p1, p2, K, distanceThresh=1e6, mask=mask.copy())
-        return R, tt.ravel() / max(float(np.linalg.norm(tt)), 1e-12), pose_mask.ravel().astype(bool)
+        """R, unit t and the inlier mask of matches (q, t) between undistorted keypoints ``xa`` and ``xb``, by the
+        front end's estimator (``geometry.relative_pose``); None where it finds no model."""
+        rel = relative_pose(xa[q], xb[t], self.seq.intrinsics.K, threshold_px=self.p.ransac_threshold_px)
+        return (rel.R, rel.t, rel.inliers) if rel is not None else None
+
+    @staticmethod
+    def _inlying(step: Step) -> np.ndarray:
+        """The inlier mask of the pair's matches ``step.matches`` (the pair's inliers, ``step.query``, among them)."""
+        return np.isin(step.matches[0], step.query)
 
     def _gate(self, located: tuple[np.ndarray, dict[int, int]] | None, prev_pose: np.ndarray,
               moved: bool) -> tuple[np.ndarray, dict[int, int]] | None:
@@ -209,16 +238,11 @@ class MapTracker:
         bound = self.p.max_scale_change
         return located if self.length / bound <= step <= self.length * bound else None
 
-    def _essential(self, a: Features, b: Features, step: Step) -> tuple[np.ndarray, np.ndarray]:
-        """R and unit t of the pair re-estimated by ``_two_view``, or the pair's own estimate where that finds none."""
-        pair = self._two_view(self._xy(a), self._xy(b), *step.matches)
-        return (pair[0], pair[1]) if pair is not None else (step.R, step.t)
-
     def _xy(self, feats: Features) -> np.ndarray:
         return undistort(feats.xy, self.seq.intrinsics) if len(feats) else np.zeros((0, 2))
 
     def _match(self, a: Features, b: Features) -> tuple[np.ndarray, np.ndarray, float]:
-        m = match(a, b, self.p.ratio)
+        m = getattr(self.registry, "match", match)(a, b, self.p.ratio)
         q, t = m.query, m.train
         if self.p.seed is not None and len(q):
             order = np.random.default_rng((self.p.seed, len(a), len(b), len(q))).permutation(len(q))

@@ -13,6 +13,7 @@ unchanged) give s_k = median(‖X_prev‖ / ‖X_cur‖) of their distances from
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -21,7 +22,7 @@ import numpy as np
 from ..datasets.base import Frame, Sequence
 from ..features import Features
 from ..pairs import PairEvidence
-from .geometry import match, relative_pose, triangulate, undistort
+from .geometry import MatchResult, match, relative_pose, triangulate, undistort
 
 if TYPE_CHECKING:
     from .pipeline import Choice, Extractors, Measure, VOParams
@@ -81,15 +82,18 @@ def try_pair(
     t = Try(choice, feats, extraction_ms=ms)
     if measure is not None:
         t.metrics = dict(measure(feats, frame.image, (prev_feats, prev_frame.image)))
-    t.step, t.matches, t.inliers, t.matching_ms, t.reason = estimate(prev_feats, feats, seq, K, p)
+    t.step, t.matches, t.inliers, t.matching_ms, t.reason = estimate(prev_feats, feats, seq, K, p,
+                                                                     getattr(registry, "match", match))
     return t
 
 
-def estimate(a: Features, b: Features, seq: Sequence, K: np.ndarray, p: VOParams) -> tuple[Step | None, int, int, float, str]:
-    """The relative motion of one frame pair (or None and why), with match/inlier counts and matching time."""
+def estimate(a: Features, b: Features, seq: Sequence, K: np.ndarray, p: VOParams,
+             matcher: Callable[[Features, Features, float], MatchResult] = match) -> tuple[Step | None, int, int, float, str]:
+    """The relative motion of one frame pair (or None and why), with match/inlier counts and matching time;
+    ``matcher`` is ``geometry.match`` or an ``Extractors``' own (``reuse.Reusing`` keeps its matches)."""
     if len(a) < p.min_keypoints or len(b) < p.min_keypoints:
         return None, 0, 0, 0.0, f"too few keypoints ({len(a)}, {len(b)})"
-    m = match(a, b, p.ratio)
+    m = matcher(a, b, p.ratio)
     n = len(m.query)
     if n < p.min_matches:
         return None, n, 0, m.elapsed_ms, f"too few matches ({n} < {p.min_matches})"
