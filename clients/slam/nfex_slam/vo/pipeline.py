@@ -20,7 +20,8 @@ that the map keeps its scale. A change of configuration re-extracts the last two
 triangulates their matches at their known poses: a switch costs those extractions, not the trajectory's scale.
 The returned poses are the refined ones (a frame between keyframes moves with its keyframe).
 
-The two-view VO (``twoview.ScaleChain``, the default while the map's seed spread with ORB_GRID exceeds 0.25: docs/vo.md) chains T_w,k = T_w,k−1 · T_k←k−1⁻¹ with T_k←k−1 = [R | s·t]:
+The two-view VO (``twoview.ScaleChain``, the default while the map's seed spread with ORB_GRID on KITTI 01 exceeds 0.25 and
+it costs 5–8× the time: docs/vo.md) chains T_w,k = T_w,k−1 · T_k←k−1⁻¹ with T_k←k−1 = [R | s·t]:
 ``scale="triangulated"`` takes s from the points the previous step also triangulated (only while the
 configuration is unchanged, so a switch restarts it at constant speed), ``"unit"`` takes s = 1, and ``"gt"`` each
 step's length from the ground truth — a diagnostic that isolates rotation and direction errors. Either way a step

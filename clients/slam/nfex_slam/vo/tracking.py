@@ -93,8 +93,8 @@ class MapTracker:
         if self.on_trial and located is not None:
             self.on_trial = False
             if self._disagrees(prev_pose, T, step.R):
-                T, _, match_ms, _, _ = self._restart(frame, taken, prev, prev_cache, prev_pose)
-                return T, extra_ms, match_ms, "restart", 0
+                T, _, restart_ms, _, _ = self._restart(frame, taken, prev, prev_cache, prev_pose)
+                return T, extra_ms, match_ms + restart_ms, "restart", 0
         how = "pnp" if located is not None else "essential"
         inliers = len(located[1]) if located is not None else 0
         if moved:
