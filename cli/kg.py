@@ -46,10 +46,7 @@ def add(
     expect_version: ExpectOpt = None,
 ) -> None:
     """Add the triples of FILES as one transaction (exit 1 with the SHACL report if rejected)."""
-    g = _files_graph(files)
-    kg = open_kg()
-    msg = message or "add " + ", ".join(f.name for f in files)
-    report_commit(kg.add(g, author=author_of(author), message=msg, expected_version=expect_version), msg)
+    _commit_files("add", files, author, message, expect_version)
 
 
 @app.command()
@@ -60,10 +57,16 @@ def remove(
     expect_version: ExpectOpt = None,
 ) -> None:
     """Remove the triples of FILES as one transaction (the rest of the graph must still conform)."""
+    _commit_files("remove", files, author, message, expect_version)
+
+
+def _commit_files(verb: str, files: list[Path], author: str | None, message: str, expect_version: int | None) -> None:
+    """``kg.add`` or ``kg.remove`` (``verb``) of the triples of ``files``, as one transaction, and its report."""
     g = _files_graph(files)
     kg = open_kg()
-    msg = message or "remove " + ", ".join(f.name for f in files)
-    report_commit(kg.remove(g, author=author_of(author), message=msg, expected_version=expect_version), msg)
+    msg = message or f"{verb} " + ", ".join(f.name for f in files)
+    write = kg.add if verb == "add" else kg.remove
+    report_commit(write(g, author=author_of(author), message=msg, expected_version=expect_version), msg)
 
 
 @app.command()

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -167,21 +168,27 @@ def test_an_estimate_inside_the_dead_band_keeps_a_session_decision(kg: Knowledge
     assert every == [0, 2, 8, 10, 12, 21, 27, 57, 60, 82, 86, 88]  # texture high ⇄ medium at confidence ≈ 0.5
 
 
+def verified_sessions(kg: KnowledgeGraph, data_dir: Path) -> tuple[Advisor, Any, list[np.ndarray]]:
+    """The shipped verification program applied, a session decision due every 4 frames, a symbolic advisor, its
+    registry (whose work count the tests read) and five consecutive KITTI 00 frames."""
+    from nfex_core.rules.dsl import programs
+
+    text = (Path(__file__).resolve().parents[3] / "rules" / "verification" / "verification.nfex").read_text()
+    _, g = programs.compile_text(text, kg.vocabulary(), name="verification")
+    programs.apply(kg, g, "verification", author="test")
+    session_frames(kg, 4)
+    images = [cv2.imread(str(p), cv2.IMREAD_GRAYSCALE) for p in sorted((data_dir / FRAMES).glob("*.png"))[40:45]]
+    advisor = Advisor(kg, neural="symbolic")
+    return advisor, advisor.snapshot().registry, images
+
+
 def test_a_verified_session_due_again_keeps_its_proposals_order_while_the_pairs_confirm_it(
         shipped_kg: KnowledgeGraph, data_dir: Path) -> None:
     """Under the verification program, a session's decision due again only because it served
     nfex:sessionDecisionFrames frames (its verdicts held, its estimate unchanged) scores α* alone; where α* is the
     same, the later proposals keep the order the decision scored them in, and the answer says so. A verdict that
     did not hold scores the first proposals in exact order again, extracting more (counted)."""
-    from nfex_core.rules.dsl import programs
-
-    text = (Path(__file__).resolve().parents[3] / "rules" / "verification" / "verification.nfex").read_text()
-    _, g = programs.compile_text(text, shipped_kg.vocabulary(), name="verification")
-    programs.apply(shipped_kg, g, "verification", author="test")
-    session_frames(shipped_kg, 4)
-    images = [cv2.imread(str(p), cv2.IMREAD_GRAYSCALE) for p in sorted((data_dir / FRAMES).glob("*.png"))[40:45]]
-    advisor = Advisor(shipped_kg, neural="symbolic")
-    registry = advisor.snapshot().registry
+    advisor, registry, images = verified_sessions(shipped_kg, data_dir)
 
     def run(held_at_last: bool) -> tuple[list, int]:  # type: ignore[type-arg]
         out, state, n = [], None, 0
@@ -212,15 +219,7 @@ def test_a_decision_due_again_whose_alpha_changed_scores_every_proposal_and_coun
     every proposal in exact order, and ``scoring.extractions`` counts both passes (the registry's own count)."""
     from dataclasses import replace
 
-    from nfex_core.rules.dsl import programs
-
-    text = (Path(__file__).resolve().parents[3] / "rules" / "verification" / "verification.nfex").read_text()
-    _, g = programs.compile_text(text, shipped_kg.vocabulary(), name="verification")
-    programs.apply(shipped_kg, g, "verification", author="test")
-    session_frames(shipped_kg, 4)
-    images = [cv2.imread(str(p), cv2.IMREAD_GRAYSCALE) for p in sorted((data_dir / FRAMES).glob("*.png"))[40:45]]
-    advisor = Advisor(shipped_kg, neural="symbolic")
-    registry = advisor.snapshot().registry
+    advisor, registry, images = verified_sessions(shipped_kg, data_dir)
     state = None
     for image in images[:4]:
         state = advisor.select({"agent": "car"}, image, state, session=True).state

@@ -24,9 +24,8 @@ SEED_SPREAD = 0.25
 
 
 def _pose(yaw: float, x: float, z: float) -> np.ndarray:
-    c, s = np.cos(yaw), np.sin(yaw)
     T = np.eye(4)
-    T[:3, :3] = [[c, 0, s], [0, 1, 0], [-s, 0, c]]
+    T[:3, :3] = _yaw(yaw)
     T[:3, 3] = [x, 0.1 * z, z]
     return T
 
@@ -37,13 +36,24 @@ def _project(T_wc: np.ndarray, X: np.ndarray) -> np.ndarray:
     return (c[:, :2] / c[:, 2:]) @ np.diag([K[0, 0], K[1, 1]]) + K[:2, 2]
 
 
-@settings(max_examples=15, deadline=None)
-@given(seed=st.integers(0, 2**16), noise=st.floats(0.02, 0.15))
-def test_the_window_adjustment_recovers_poses_and_points_with_its_oldest_held(seed: int, noise: float) -> None:
+def _yaw(angle: float) -> np.ndarray:
+    """The rotation by ``angle`` (radians) about the camera's vertical axis."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+
+
+def _scene(seed: int) -> tuple[np.random.Generator, dict[int, np.ndarray], np.ndarray, list[tuple[int, int, np.ndarray, float]]]:
+    """Five poses moving forward and turning, 60 points in front of them, and every exact observation (σ 1 px)."""
     rng = np.random.default_rng(seed)
     poses = {i: _pose(0.03 * i, 0.2 * i, 1.0 * i) for i in range(5)}
     X = rng.uniform([-4, -2, 8], [4, 2, 20], (60, 3))
-    obs = [(i, j, xy, 1.0) for i, T in poses.items() for j, xy in enumerate(_project(T, X))]
+    return rng, poses, X, [(i, j, xy, 1.0) for i, T in poses.items() for j, xy in enumerate(_project(T, X))]
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 2**16), noise=st.floats(0.02, 0.15))
+def test_the_window_adjustment_recovers_poses_and_points_with_its_oldest_held(seed: int, noise: float) -> None:
+    rng, poses, X, obs = _scene(seed)
     start = {i: T.copy() for i, T in poses.items()}
     for i in (2, 3, 4):
         start[i][:3, 3] += rng.normal(0, noise, 3)
@@ -58,14 +68,10 @@ def test_the_window_adjustment_recovers_poses_and_points_with_its_oldest_held(se
 @settings(max_examples=10, deadline=None)
 @given(seed=st.integers(0, 2**16), noise=st.floats(0.005, 0.03))
 def test_relative_rotations_that_agree_with_the_points_leave_the_adjustment_where_the_points_put_it(seed: int, noise: float) -> None:
-    rng = np.random.default_rng(seed)
-    poses = {i: _pose(0.03 * i, 0.2 * i, 1.0 * i) for i in range(5)}
-    X = rng.uniform([-4, -2, 8], [4, 2, 20], (60, 3))
-    obs = [(i, j, xy, 1.0) for i, T in poses.items() for j, xy in enumerate(_project(T, X))]
+    rng, poses, X, obs = _scene(seed)
     start = {i: T.copy() for i, T in poses.items()}
     for i in (2, 3, 4):  # each pose turned about its vertical axis by up to ~2°
-        c, s_ = np.cos(noise), np.sin(noise)
-        start[i][:3, :3] = start[i][:3, :3] @ np.array([[c, 0, s_], [0, 1, 0], [-s_, 0, c]])
+        start[i][:3, :3] = start[i][:3, :3] @ _yaw(noise)
     R = {(i, i + 1): poses[i + 1][:3, :3].T @ poses[i][:3, :3] for i in range(4)}  # R_i+1←i, x_i+1 = R x_i + t
     out, _ = adjust(start, [0, 1], {j: X[j] for j in range(len(X))}, obs, K, iterations=30, rotations=R,
                     rotation_sigma=HUBER_PX / K[0, 0])
@@ -179,16 +185,12 @@ def test_a_map_started_on_a_wrong_pair_is_given_up_and_its_error_does_not_grow(
     real = twoview.relative_pose
     calls = {"n": 0}
 
-    def yaw(deg: float) -> np.ndarray:
-        c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
-        return np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
-
     def first_pair_wrong(p1: np.ndarray, p2: np.ndarray, K: np.ndarray, **kw: Any) -> RelativePose | None:
         rel = real(p1, p2, K, **kw)
         calls["n"] += 1
         if calls["n"] > 1 or rel is None:
             return rel
-        return RelativePose(yaw(1.7) @ rel.R, yaw(80.0) @ rel.t, rel.inliers, rel.parallax_px)
+        return RelativePose(_yaw(np.radians(1.7)) @ rel.R, _yaw(np.radians(80.0)) @ rel.t, rel.inliers, rel.parallax_px)
 
     monkeypatch.setattr(twoview, "relative_pose", first_pair_wrong)
     seq = _window(kitti01, 14)
