@@ -34,7 +34,7 @@ from .localmap import Keyframe, LocalMap, keypoint_sigma
 
 if TYPE_CHECKING:
     from .pipeline import Choice, Extractors, VOParams
-    from .twoview import Step, Try
+    from .twoview import Try
 
 
 class MapTracker:
@@ -142,7 +142,7 @@ class MapTracker:
         p, key = self.p, taken.choice.key
         moved = step.parallax_px >= p.still_px
         xy = self._xy(taken.feats)
-        pair: tuple[np.ndarray, np.ndarray, np.ndarray] | None = (step.R, step.t, self._inlying(step))
+        pair: tuple[np.ndarray, np.ndarray, np.ndarray] | None = (step.R, step.t, step.inlying)
         forward = np.eye(4)  # camera k-1 → camera k
         forward[:3, :3] = step.R
         forward[:3, 3] = (self.length if moved else 0.0) * step.t
@@ -221,11 +221,6 @@ class MapTracker:
         front end's estimator (``geometry.relative_pose``); None where it finds no model."""
         rel = relative_pose(xa[q], xb[t], self.seq.intrinsics.K, threshold_px=self.p.ransac_threshold_px)
         return (rel.R, rel.t, rel.inliers) if rel is not None else None
-
-    @staticmethod
-    def _inlying(step: Step) -> np.ndarray:
-        """The inlier mask of the pair's matches ``step.matches`` (the pair's inliers, ``step.query``, among them)."""
-        return np.isin(step.matches[0], step.query)
 
     def _gate(self, located: tuple[np.ndarray, dict[int, int]] | None, prev_pose: np.ndarray,
               moved: bool) -> tuple[np.ndarray, dict[int, int]] | None:

@@ -39,6 +39,7 @@ class Step:
     parallax_px: float
     matches: tuple[np.ndarray, np.ndarray] = field(default_factory=lambda: (np.zeros(0, np.int64), np.zeros(0, np.int64)))
     # every ratio-test match (query, train), in the seed's order: the local map tracks its points through them
+    inlying: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))  # which of ``matches`` are the inliers
 
 
 @dataclass
@@ -109,7 +110,7 @@ def estimate(a: Features, b: Features, seq: Sequence, K: np.ndarray, p: VOParams
     if k < p.min_inliers:
         return None, n, k, m.elapsed_ms, f"too few inliers ({k} < {p.min_inliers})"
     inl = rel.inliers
-    step = Step(rel.R, rel.t, m.query[inl], m.train[inl], p1[inl], p2[inl], rel.parallax_px, (m.query, m.train))
+    step = Step(rel.R, rel.t, m.query[inl], m.train[inl], p1[inl], p2[inl], rel.parallax_px, (m.query, m.train), inl)
     return step, n, k, m.elapsed_ms, ""
 
 
