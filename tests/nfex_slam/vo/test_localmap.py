@@ -174,28 +174,47 @@ def test_the_map_keeps_its_heading_through_a_turn_it_could_fit_wrongly(kitti00: 
     assert after < before + 3.0  # the 2.5° the camera turns between them add less than 3° of heading error
 
 
-def test_a_map_started_on_a_wrong_pair_is_given_up_and_its_error_does_not_grow(
-        kitti01: Sequence, registry: ExtractorRegistry, monkeypatch: pytest.MonkeyPatch) -> None:
-    """The first pair's estimate turned 1.7° in yaw and its direction 80° sideways (what MAGSAC++ returned for KITTI
-    01's first ORB_GRID pair in some RANSAC draws): the map starts on it, its first PnP placement disagrees with the
-    next pair's rotation, and the map starts again from there; the heading error stays the first pair's."""
+def _one_pair_wrong(monkeypatch: pytest.MonkeyPatch, which: int) -> None:
+    """The ``which``-th pair's estimate (1: the first) turned 1.7° in yaw and its direction 80° sideways: what
+    MAGSAC++ returned for KITTI 01's first ORB_GRID pair in some RANSAC draws."""
     from nfex_slam.vo import twoview
     from nfex_slam.vo.geometry import RelativePose
 
     real = twoview.relative_pose
     calls = {"n": 0}
 
-    def first_pair_wrong(p1: np.ndarray, p2: np.ndarray, K: np.ndarray, **kw: Any) -> RelativePose | None:
+    def wrong(p1: np.ndarray, p2: np.ndarray, K: np.ndarray, **kw: Any) -> RelativePose | None:
         rel = real(p1, p2, K, **kw)
         calls["n"] += 1
-        if calls["n"] > 1 or rel is None:
+        if calls["n"] != which or rel is None:
             return rel
         return RelativePose(_yaw(np.radians(1.7)) @ rel.R, _yaw(np.radians(80.0)) @ rel.t, rel.inliers, rel.parallax_px)
 
-    monkeypatch.setattr(twoview, "relative_pose", first_pair_wrong)
+    monkeypatch.setattr(twoview, "relative_pose", wrong)
+
+
+def test_a_map_started_on_a_wrong_pair_is_given_up_and_started_again_from_its_first_keyframe(
+        kitti01: Sequence, registry: ExtractorRegistry, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The map starts on the wrong first pair (frames 0, 1); its first PnP placement disagrees with the next pair's
+    rotation, and so does the essential matrix of frames 0 and 2: the map starts again from frame 0, which the wrong
+    pair did not place, and the heading error of the run's last frame is not the first pair's."""
+    _one_pair_wrong(monkeypatch, 1)
     seq = _window(kitti01, 14)
     res = run_vo(seq, fixed("SIFT"), registry=registry, params=VOParams(seed=0, scale="map"))
     assert [f.located for f in res.frames].count("restart") == 1 and res.lost_count == 0
     truth = np.linalg.inv(seq.poses[0]) @ seq.poses  # type: ignore[index]
     first, last = _heading_error(res.poses[1], truth[1]), _heading_error(res.poses[-1], truth[-1])
-    assert first > 1.0 and last < first + 0.5
+    assert first > 1.0 and last < 0.5
+
+
+def test_a_wrong_pair_right_after_the_start_does_not_give_the_map_up(
+        kitti01: Sequence, registry: ExtractorRegistry, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The pair after the start (frames 1, 2) is the wrong one: the map's first PnP placement disagrees with it, the
+    essential matrix of frames 0 and 2 agrees with the map, and the map is kept."""
+    _one_pair_wrong(monkeypatch, 2)
+    seq = _window(kitti01, 14)
+    res = run_vo(seq, fixed("SIFT"), registry=registry, params=VOParams(seed=0, scale="map"))
+    assert [f.located for f in res.frames][:3] == ["", "essential", "pnp"] and res.lost_count == 0
+    assert "restart" not in [f.located for f in res.frames]
+    truth = np.linalg.inv(seq.poses[0]) @ seq.poses  # type: ignore[index]
+    assert max(_heading_error(res.poses[k], truth[k]) for k in range(len(seq))) < 0.5

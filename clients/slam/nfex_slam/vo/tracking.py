@@ -4,9 +4,13 @@ For an accepted pair (frame k−1, frame k) whose two-view estimate passed the c
 
 1. With no map yet, frame k−1 becomes its first keyframe (its pose is known: the identity at the start). A map just
    started is on trial: where its first PnP placement turns from frame k−1 to frame k by more than the window's
-   bound on a pair's rotation (√7.815 σ_R) away from the pair's own estimate, the start pair was wrong — the points
-   triangulated from it are distorted, and every placement on them would follow the distortion — and the map is
-   given up and started again from frame k−1 (``_restart``); the frames placed so far keep their poses.
+   bound on a pair's rotation (√7.815 σ_R) away from the pair's own estimate, one of them is wrong, and a third
+   estimate decides which (``_arbitrate``): the essential matrix of the map's first keyframe and frame k. Agreeing
+   with the map, it makes the pair the outlier, and the map is kept; agreeing with the pairs' rotations chained
+   since the first keyframe, it makes the map's points distorted (every placement on them would follow the
+   distortion), and the map starts again from frame k−1; agreeing with neither, it makes the pair the map was
+   started on wrong, and the map starts again from its first keyframe, which that pair did not place
+   (``_restart``). The frames placed so far keep their poses.
 2. Where the pair's configuration is not the map's, the last two keyframes are re-extracted with it and their
    matches triangulated at their known poses (``LocalMap.switch``); the extractions count in frame k's cost.
 3. Frame k is matched against the last keyframe (the pair's own matches where frame k−1 is that keyframe) and
@@ -50,6 +54,7 @@ class MapTracker:
         # R_k←kf (None: a pair between them lost)
         self.turned: np.ndarray | None = None
         self.placed = -1  # the index of the last frame placed
+        self.started: np.ndarray | None = None  # the pairs' rotations chained from the map's start to its second keyframe
 
     def place(self, frame: Frame, taken: Try, prev: Frame, prev_cache: dict[str, Features],
               prev_pose: np.ndarray) -> tuple[np.ndarray, float, float, str, int]:
@@ -93,8 +98,12 @@ class MapTracker:
         if self.on_trial and located is not None:
             self.on_trial = False
             if self._disagrees(prev_pose, T, step.R):
-                T, _, restart_ms, _, _ = self._restart(frame, taken, prev, prev_cache, prev_pose)
-                return T, extra_ms, match_ms + restart_ms, "restart", 0
+                wrong, ms = self._arbitrate(T, taken, xy)
+                match_ms += ms
+                if wrong != "pair":
+                    T, _, restart_ms, _, _ = self._restart(frame, taken, prev, prev_cache, prev_pose,
+                                                           from_first=wrong == "start")
+                    return T, extra_ms, match_ms + restart_ms, "restart", 0
         how = "pnp" if located is not None else "essential"
         inliers = len(located[1]) if located is not None else 0
         if moved:
@@ -171,30 +180,58 @@ class MapTracker:
         self.anchors[s.id] = (s.id, np.eye(4))
         self.map.add(kf)
         self.map.associate(s, kf, q, t)
-        self.length = max(float(np.linalg.norm(T[:3, 3] - prev_pose[:3, 3])), 1e-9)
+        self.length = length / (frame.index - s.id)  # the mean step since the start: frame k−1 was placed by its pair
         if self.turned is not None:
             self.map.relate(s.id, kf.id, self.turned)
+        self.started = self.turned
         self.start = None
         self.turned = np.eye(3)
         self.on_trial = True
         self.anchor(frame.index, T)
         return T, 0.0, match_ms, "essential", 0
 
-    def _disagrees(self, prev_pose: np.ndarray, T: np.ndarray, R_pair: np.ndarray) -> bool:
-        """Whether the rotation from frame k−1 to frame k that the map's placement gives differs from the pair's own
-        estimate by more than the window's bound on a pair's rotation (√7.815 σ_R, χ² with 3 degrees of freedom at
-        95 %: 0.53° on KITTI)."""
-        R_map = T[:3, :3].T @ prev_pose[:3, :3]  # x_k = R x_k−1 + t, as the pair's R
-        cos = (np.trace(R_map @ R_pair.T) - 1) / 2
-        return float(np.arccos(np.clip(cos, -1.0, 1.0))) > HUBER_ROTATION * self.map.rotation_sigma
+    def _disagrees(self, from_pose: np.ndarray, T: np.ndarray, R: np.ndarray) -> bool:
+        """Whether the rotation from the camera at ``from_pose`` to frame k that the map's placement T gives differs
+        from R (x_k = R x + t) by more than the window's bound on a pair's rotation (√7.815 σ_R, χ² with 3 degrees of
+        freedom at 95 %: 0.53° on KITTI)."""
+        return _angle(T[:3, :3].T @ from_pose[:3, :3], R) > HUBER_ROTATION * self.map.rotation_sigma
+
+    def _arbitrate(self, T: np.ndarray, taken: Try, xy: np.ndarray) -> tuple[str, float]:
+        """Which of the map on trial and the pair (frame k−1, frame k) that disagree with it is wrong, and the ms of
+        matching spent on deciding: a third estimate, the essential matrix of the map's first keyframe s and frame k
+        (a pair not used to start the map nor to place frame k), sides with the one it agrees with. "pair": it agrees
+        with the map, and the pair is the outlier (the map is kept); "map": it agrees with the pairs' rotations chained
+        from s to frame k, and the map's points are distorted (the map starts again from frame k−1); "start": it
+        agrees with neither, so the chain holds a wrong pair as well — the start pair the map was built on — and the map
+        starts again from s, which that pair did not place. Without a third estimate (s has another configuration,
+        too few matches, no model): "map"."""
+        s = self.map.keyframes[0]
+        if s.key != taken.choice.key:
+            return "map", 0.0
+        q, t, ms = self._match(s.feats, taken.feats)
+        third = self._two_view(s.xy, xy, q, t) if len(q) >= 2 * self.p.start_points else None
+        if third is None:
+            return "map", ms
+        if not self._disagrees(s.T_wc, T, third[0]):
+            return "pair", ms
+        if self.started is not None and self.turned is not None:
+            bound = HUBER_ROTATION * self.map.rotation_sigma
+            if _angle(self.turned @ self.started, third[0]) <= bound:
+                return "map", ms
+        return "start", ms
 
     def _restart(self, frame: Frame, taken: Try, prev: Frame, prev_cache: dict[str, Features],
-                 prev_pose: np.ndarray) -> tuple[np.ndarray, float, float, str, int]:
-        """Give the map up and start again from frame k−1 at the pose it has (``_start``); the frames placed so far
-        keep their poses."""
+                 prev_pose: np.ndarray, from_first: bool = False) -> tuple[np.ndarray, float, float, str, int]:
+        """Give the map up and start again (``_start``) from frame k−1 at the pose it has, or ``from_first``: from the
+        map's first keyframe, with no rotation chained to frame k (the chain holds the wrong pair). The frames placed so
+        far keep their poses."""
+        first = self.map.keyframes[0]
         self.retired.update(self.map.poses)
         self.map = self._new_map()
         self.start = None
+        if from_first:
+            self.start = Keyframe(first.id, first.T_wc, first.key, first.feats, first.xy, first.image, first.sigma)
+            self.turned = None
         return self._start(frame, taken, prev, prev_cache, prev_pose)
 
     def _new_map(self) -> LocalMap:
@@ -264,3 +301,8 @@ class MapTracker:
         q, t, match_ms = self._match(feats[0], feats[1])
         self.map.switch(kfs[0], kfs[1], choice.key, feats[0], feats[1], self._xy(feats[0]), self._xy(feats[1]), q, t)
         return ms, match_ms
+
+
+def _angle(Ra: np.ndarray, Rb: np.ndarray) -> float:
+    """The angle (radians) of the rotation between Ra and Rb."""
+    return float(np.arccos(np.clip((np.trace(Ra @ Rb.T) - 1) / 2, -1.0, 1.0)))
