@@ -116,6 +116,40 @@ class LocalMap:
         T_cw[:3, 3] = tvec.ravel()
         return np.linalg.inv(T_cw), {kps[int(n)]: seen[kps[int(n)]] for n in idx}
 
+    def step_sigma(self, T_wc: np.ndarray, xy: np.ndarray, sigma: np.ndarray, located: dict[int, int],
+                   origin: np.ndarray) -> float:
+        """The standard deviation of a located frame's distance along its step from ``origin`` (a position), as its
+        map points (``located``: keypoint → point id, keypoints ``xy`` with σ ``sigma`` in px) determine it: the
+        camera-centre block of (JᵀΣ⁻¹J)⁻¹, J the projections' Jacobian in the pose's six degrees of freedom (a rotation
+        in the world frame and the centre) at T_wc, projected on the step's direction (Hartley & Zisserman §5.2, the
+        covariance of a least-squares estimate). Points that all lie far ahead, many steps away, hardly move as the
+        camera moves along its line of sight: the step's length is then left undetermined, however well they fit."""
+        d = T_wc[:3, 3] - origin
+        length = float(np.linalg.norm(d))
+        if length == 0 or not located:
+            return float("inf")
+        kps = list(located)
+        X = np.array([self.points[located[k]].X for k in kps], np.float64) - T_wc[:3, 3]  # X − c, world frame
+        R = T_wc[:3, :3]
+        Xc = X @ R  # Rᵀ (X − c): camera frame
+        z = Xc[:, 2:3]
+        f = np.array([self.K[0, 0], self.K[1, 1]])
+        d_proj = np.zeros((len(kps), 2, 3))  # ∂(u, v)/∂X_c
+        d_proj[:, 0, 0], d_proj[:, 1, 1] = f[0] / z[:, 0], f[1] / z[:, 0]
+        d_proj[:, :, 2] = -f * Xc[:, :2] / z**2
+        skew = np.zeros((len(kps), 3, 3))  # [X − c]×
+        skew[:, 0, 1], skew[:, 0, 2], skew[:, 1, 2] = -X[:, 2], X[:, 1], -X[:, 0]
+        skew -= skew.transpose(0, 2, 1)
+        d_rot = R.T @ skew  # ∂X_c/∂δθ for R ← exp(δθ) R
+        J = np.concatenate([d_proj @ d_rot, d_proj @ -R.T], axis=2) / np.asarray(sigma, np.float64)[kps, None, None]
+        J = J.reshape(-1, 6)
+        try:
+            C = np.linalg.inv(J.T @ J)
+        except np.linalg.LinAlgError:
+            return float("inf")
+        u = d / length
+        return float(np.sqrt(max(u @ C[3:, 3:] @ u, 0.0)))
+
     def associate(self, ref: Keyframe, cur: Keyframe, query: np.ndarray, train: np.ndarray) -> int:
         """Carry ``ref``'s points and tracks to ``cur`` through the matches; triangulate tracks with parallax enough.
         Returns the number of new points."""

@@ -80,7 +80,9 @@ class MapTracker:
         xy = self._xy(taken.feats)
         seen = self.map.correspondences(ref, q, t)
         moved = step.parallax_px >= p.still_px
-        located = self._gate(self.map.locate(xy, seen, min_points=p.min_map_points, min_inliers=p.min_inliers), prev_pose, moved)
+        sigma = keypoint_sigma(taken.feats)
+        located = self._gate(self.map.locate(xy, seen, min_points=p.min_map_points, min_inliers=p.min_inliers),
+                             prev_pose, moved, xy, sigma)
         if located is not None:
             T = located[0]
         else:
@@ -92,7 +94,8 @@ class MapTracker:
         found = self.map.search(T, key, taken.feats, xy, radius=p.search_radius_px, ratio=p.ratio,
                                 taken=set(located[1]) if located is not None else set())
         both = {**found, **(located[1] if located is not None else {})}
-        again = self._gate(self.map.locate(xy, both, min_points=p.min_map_points, min_inliers=p.min_inliers), prev_pose, moved)
+        again = self._gate(self.map.locate(xy, both, min_points=p.min_map_points, min_inliers=p.min_inliers),
+                           prev_pose, moved, xy, sigma)
         if again is not None:
             T, located = again[0], again
         if self.on_trial and located is not None:
@@ -259,16 +262,22 @@ class MapTracker:
         rel = relative_pose(xa[q], xb[t], self.seq.intrinsics.K, threshold_px=self.p.ransac_threshold_px)
         return (rel.R, rel.t, rel.inliers) if rel is not None else None
 
-    def _gate(self, located: tuple[np.ndarray, dict[int, int]] | None, prev_pose: np.ndarray,
-              moved: bool) -> tuple[np.ndarray, dict[int, int]] | None:
-        """A PnP pose whose step from frame k−1 changes the last step's length by more than ``max_scale_change`` (the
-        bound the two-view chain puts on a step, against a bad triangulation) is no pose: PnP on points that mostly lie
-        far, or along one line of sight, can agree with a wrong translation."""
+    def _gate(self, located: tuple[np.ndarray, dict[int, int]] | None, prev_pose: np.ndarray, moved: bool,
+              xy: np.ndarray, sigma: np.ndarray) -> tuple[np.ndarray, dict[int, int]] | None:
+        """A PnP pose whose step from frame k−1 changes the last step's length by more than ``max_scale_change`` b (the
+        bound the two-view chain puts on a step, against a bad triangulation), or whose step its points leave
+        undetermined — its 95 % interval (± 1.96 σ, ``LocalMap.step_sigma``) reaches below (1 − 1/b) of it, a step 1/b
+        as long — is no pose: PnP on points that all lie far, or along one line of sight, fits a wrong step as well as
+        the right one. The pair's essential matrix with the last step's length places the frame instead."""
         if located is None or not moved:
             return located
-        step = float(np.linalg.norm(located[0][:3, 3] - prev_pose[:3, 3]))
+        T, inliers = located
+        step = float(np.linalg.norm(T[:3, 3] - prev_pose[:3, 3]))
         bound = self.p.max_scale_change
-        return located if self.length / bound <= step <= self.length * bound else None
+        if not self.length / bound <= step <= self.length * bound:
+            return None
+        spread = self.map.step_sigma(T, xy, sigma, inliers, prev_pose[:3, 3])
+        return located if 1.96 * spread <= (1 - 1 / bound) * step else None
 
     def _xy(self, feats: Features) -> np.ndarray:
         return undistort(feats.xy, self.seq.intrinsics) if len(feats) else np.zeros((0, 2))
