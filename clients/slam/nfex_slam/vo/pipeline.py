@@ -129,7 +129,7 @@ class FrameRecord:
     tries: int = 1  # candidates tried on this pair (verification; extraction and matching ms count them all)
     verdict: dict[str, Any] | None = field(default=None, compare=False)  # verification.Verdict.as_dict()
     located: str = ""  # how the local map placed the frame: "pnp" | "essential" | "restart" (the map, just started,
-    # disagreed with this pair and started again on it) ("" without a map, or lost)
+    # disagreed with this pair, was found wrong and started again: tracking._arbitrate) ("" without a map, or lost)
     map_points: int = 0  # PnP inliers among the map's points
 
     @property

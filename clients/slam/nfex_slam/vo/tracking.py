@@ -14,8 +14,9 @@ For an accepted pair (frame k−1, frame k) whose two-view estimate passed the c
 2. Where the pair's configuration is not the map's, the last two keyframes are re-extracted with it and their
    matches triangulated at their known poses (``LocalMap.switch``); the extractions count in frame k's cost.
 3. Frame k is matched against the last keyframe (the pair's own matches where frame k−1 is that keyframe) and
-   located by PnP + RANSAC on the map points among the matches; with too few, the essential matrix's R and unit t
-   scaled by the last step's length place it (t = 0 where the pair did not move).
+   located by PnP + RANSAC on the map points among the matches; with too few, or a step they leave undetermined or
+   out of bounds (``_gate``), the essential matrix's R and unit t scaled by the last step's length place it (t = 0
+   where the pair did not move).
 4. A frame that moved becomes a keyframe: its matches extend the map's points and tracks, tracks with parallax
    enough are triangulated, and the window is bundle-adjusted (``bundle.adjust``) with its rotation from the last
    keyframe held to the pairs' rotations chained since that keyframe (where no pair between them was lost).
@@ -110,7 +111,7 @@ class MapTracker:
         how = "pnp" if located is not None else "essential"
         inliers = len(located[1]) if located is not None else 0
         if moved:
-            kf = Keyframe(frame.index, T, key, taken.feats, xy, frame.image, keypoint_sigma(taken.feats))
+            kf = Keyframe(frame.index, T, key, taken.feats, xy, frame.image, sigma)
             self.map.add(kf)
             if self.turned is not None:
                 self.map.relate(ref.id, kf.id, self.turned)
