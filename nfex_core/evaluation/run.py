@@ -38,6 +38,7 @@ from nfex_slam.datasets.schedule import SCHEDULE, Schedule, under
 from nfex_slam.motion import NO_CHECKS, StepChecks
 from nfex_slam.vo import Reusing, VOParams, VOResult, run_vo
 
+from ..errors import BadInput
 from ..kg.rdf.identity import sequence_iri
 from ..kg.scope import EvidenceScope, scoped_graph
 from .figures import ATE, Figure, rank
@@ -58,6 +59,7 @@ from .segments import by_segment, run_errors, transitions
 
 if TYPE_CHECKING:
     from ..kg.store import KnowledgeGraph
+    from ..rules.engine import RuleTable
 
 
 @dataclass
@@ -222,11 +224,9 @@ def evaluate(
                       if prior_from else "", skipped)
 
 
-def _without_evidence(methods: Seq[str], table: Any) -> dict[str, str]:
+def _without_evidence(methods: Seq[str], table: RuleTable) -> dict[str, str]:
     """The methods that the evidence in scope cannot form (tuned static, where no configuration measured outside the
     held-out sequence is left), with why: they are left out of this sequence's tables, not the whole study."""
-    from ..errors import BadInput
-
     if TUNED not in methods:
         return {}
     try:

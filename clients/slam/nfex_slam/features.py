@@ -43,6 +43,11 @@ class Features:
     def binary(self) -> bool:
         return self.descriptor_kind == "binary"
 
+    @property
+    def nbytes(self) -> int:
+        """The bytes its arrays hold (keypoints and descriptors)."""
+        return int(sum(a.nbytes for a in (self.xy, self.size, self.angle, self.response, self.octave, self.descriptors)))
+
     def keypoints(self) -> list[Any]:
         """The keypoints as ``cv2.KeyPoint`` objects (for drawing or OpenCV APIs that need them)."""
         import cv2

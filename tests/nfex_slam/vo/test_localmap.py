@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import cv2
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -235,7 +236,7 @@ def test_the_step_sigma_is_the_least_squares_covariance_of_the_camera_centre(see
 
     def residuals(p: np.ndarray) -> np.ndarray:
         T2 = T.copy()
-        T2[:3, :3] = _rodrigues(p[:3]) @ T[:3, :3]
+        T2[:3, :3] = cv2.Rodrigues(p[:3])[0] @ T[:3, :3]
         T2[:3, 3] = T[:3, 3] + p[3:]
         return ((_project(T2, X) - _project(T, X)) / sigma[:, None]).ravel()
 
@@ -245,15 +246,6 @@ def test_the_step_sigma_is_the_least_squares_covariance_of_the_camera_centre(see
     u = T[:3, 3] / np.linalg.norm(T[:3, 3])
     expected = float(np.sqrt(u @ C[3:, 3:] @ u))
     assert m.step_sigma(T, _project(T, X), sigma, {j: j for j in range(len(X))}, np.zeros(3)) == pytest.approx(expected, rel=1e-4)
-
-
-def _rodrigues(w: np.ndarray) -> np.ndarray:
-    theta = float(np.linalg.norm(w))
-    if theta == 0:
-        return np.eye(3)
-    k = w / theta
-    Kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + np.sin(theta) * Kx + (1 - np.cos(theta)) * Kx @ Kx
 
 
 def test_points_far_ahead_leave_a_forward_step_undetermined() -> None:

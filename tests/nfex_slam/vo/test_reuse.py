@@ -64,9 +64,7 @@ def test_a_switch_of_configuration_reuses_the_other_configurations_extractions(
 def test_past_its_bound_it_forgets_the_oldest_and_still_answers_alike(
         kitti01: Sequence, registry: ExtractorRegistry) -> None:
     counting = Counting(registry)
-    one = registry.extract("ORB_GRID", kitti01[0].image)
-    size = one.descriptors.nbytes + one.xy.nbytes + one.size.nbytes + one.angle.nbytes + one.response.nbytes + one.octave.nbytes
-    small = Reusing(counting, max_bytes=3 * size)  # about three frames' features
+    small = Reusing(counting, max_bytes=3 * registry.extract("ORB_GRID", kitti01[0].image).nbytes)  # about three frames' features
     a = run_vo(kitti01, fixed("ORB_GRID"), registry=small, params=VOParams(seed=0), stop=8)
     b = run_vo(kitti01, fixed("ORB_GRID"), registry=small, params=VOParams(seed=0), stop=8)
     assert counting.calls > 8  # the second run extracted again what the bound dropped

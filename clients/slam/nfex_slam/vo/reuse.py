@@ -52,7 +52,7 @@ class Reusing:
         self.extractions += 1
         self._features[key] = feats
         self._keys[id(feats)] = key
-        self._bytes += _nbytes(feats)
+        self._bytes += feats.nbytes
         while self._bytes > self.max_bytes and len(self._features) > 1:
             self._forget(*self._features.popitem(last=False))
         return feats
@@ -81,11 +81,7 @@ class Reusing:
 
     def _forget(self, key: Key, feats: Features) -> None:
         self._keys.pop(id(feats), None)
-        self._bytes -= _nbytes(feats)
+        self._bytes -= feats.nbytes
         for mk in [mk for mk in self._matches if key in (mk[0], mk[1])]:
             old = self._matches.pop(mk)
             self._match_bytes -= old.query.nbytes + old.train.nbytes
-
-
-def _nbytes(f: Features) -> int:
-    return int(f.descriptors.nbytes + f.xy.nbytes + f.size.nbytes + f.angle.nbytes + f.response.nbytes + f.octave.nbytes)

@@ -27,12 +27,14 @@ prior) follow their keyframe's refinement.
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..datasets.base import Frame, Sequence
 from ..features import Features
+from ..motion import rotation_deg
 from .bundle import HUBER_ROTATION
 from .geometry import match, relative_pose, triangulate, undistort
 from .localmap import Keyframe, LocalMap, keypoint_sigma
@@ -198,7 +200,11 @@ class MapTracker:
         """Whether the rotation from the camera at ``from_pose`` to frame k that the map's placement T gives differs
         from R (x_k = R x + t) by more than the window's bound on a pair's rotation (√7.815 σ_R, χ² with 3 degrees of
         freedom at 95 %: 0.53° on KITTI)."""
-        return _angle(T[:3, :3].T @ from_pose[:3, :3], R) > HUBER_ROTATION * self.map.rotation_sigma
+        return self._apart(T[:3, :3].T @ from_pose[:3, :3], R)
+
+    def _apart(self, Ra: np.ndarray, Rb: np.ndarray) -> bool:
+        """Whether two rotations differ by more than √7.815 σ_R."""
+        return rotation_deg(Ra @ Rb.T) > np.degrees(HUBER_ROTATION * self.map.rotation_sigma)
 
     def _arbitrate(self, T: np.ndarray, taken: Try, xy: np.ndarray) -> tuple[str, float]:
         """Which of the map on trial and the pair (frame k−1, frame k) that disagree with it is wrong, and the ms of
@@ -218,10 +224,8 @@ class MapTracker:
             return "map", ms
         if not self._disagrees(s.T_wc, T, third[0]):
             return "pair", ms
-        if self.started is not None and self.turned is not None:
-            bound = HUBER_ROTATION * self.map.rotation_sigma
-            if _angle(self.turned @ self.started, third[0]) <= bound:
-                return "map", ms
+        if self.started is not None and self.turned is not None and not self._apart(self.turned @ self.started, third[0]):
+            return "map", ms
         return "start", ms
 
     def _restart(self, frame: Frame, taken: Try, prev: Frame, prev_cache: dict[str, Features],
@@ -234,7 +238,7 @@ class MapTracker:
         self.map = self._new_map()
         self.start = None
         if from_first:
-            self.start = Keyframe(first.id, first.T_wc, first.key, first.feats, first.xy, first.image, first.sigma)
+            self.start = replace(first, points={}, tracks={})
             self.turned = None
         return self._start(frame, taken, prev, prev_cache, prev_pose)
 
@@ -311,8 +315,3 @@ class MapTracker:
         q, t, match_ms = self._match(feats[0], feats[1])
         self.map.switch(kfs[0], kfs[1], choice.key, feats[0], feats[1], self._xy(feats[0]), self._xy(feats[1]), q, t)
         return ms, match_ms
-
-
-def _angle(Ra: np.ndarray, Rb: np.ndarray) -> float:
-    """The angle (radians) of the rotation between Ra and Rb."""
-    return float(np.arccos(np.clip((np.trace(Ra @ Rb.T) - 1) / 2, -1.0, 1.0)))

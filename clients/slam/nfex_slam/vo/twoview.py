@@ -32,14 +32,22 @@ if TYPE_CHECKING:
 class Step:
     R: np.ndarray
     t: np.ndarray  # unit
-    query: np.ndarray  # inlier keypoint indices in frame k-1
-    train: np.ndarray  # inlier keypoint indices in frame k
-    p1: np.ndarray
-    p2: np.ndarray
+    p1: np.ndarray  # the inliers' undistorted pixels in frame k-1
+    p2: np.ndarray  # and in frame k
     parallax_px: float
     matches: tuple[np.ndarray, np.ndarray] = field(default_factory=lambda: (np.zeros(0, np.int64), np.zeros(0, np.int64)))
     # every ratio-test match (query, train), in the seed's order: the local map tracks its points through them
     inlying: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))  # which of ``matches`` are the inliers
+
+    @property
+    def query(self) -> np.ndarray:
+        """The inliers' keypoint indices in frame k-1."""
+        return self.matches[0][self.inlying]
+
+    @property
+    def train(self) -> np.ndarray:
+        """The inliers' keypoint indices in frame k."""
+        return self.matches[1][self.inlying]
 
 
 @dataclass
@@ -110,7 +118,7 @@ def estimate(a: Features, b: Features, seq: Sequence, K: np.ndarray, p: VOParams
     if k < p.min_inliers:
         return None, n, k, m.elapsed_ms, f"too few inliers ({k} < {p.min_inliers})"
     inl = rel.inliers
-    step = Step(rel.R, rel.t, m.query[inl], m.train[inl], p1[inl], p2[inl], rel.parallax_px, (m.query, m.train), inl)
+    step = Step(rel.R, rel.t, p1[inl], p2[inl], rel.parallax_px, (m.query, m.train), inl)
     return step, n, k, m.elapsed_ms, ""
 
 
