@@ -85,7 +85,7 @@ def test_scale_modes_give_finite_poses(kitti01: Sequence, registry: ExtractorReg
     res = run_vo(kitti01, fixed("ORB"), registry=registry, params=VOParams(scale=scale), stop=6)
     assert np.isfinite(res.poses).all()
     steps = np.linalg.norm(np.diff(res.poses[:, :3, 3], axis=0), axis=1)
-    assert steps[0] == pytest.approx(1.0)
+    assert steps[0] == pytest.approx(1.0, rel=0.05 if scale == "map" else 1e-6)  # the map's: tracking.MapTracker._between
     if scale == "unit":
         assert np.allclose(steps, 1.0)
 

@@ -2,7 +2,11 @@
 
 For an accepted pair (frame k−1, frame k) whose two-view estimate passed the checks and the judge:
 
-1. With no map yet, frame k−1 becomes its first keyframe (its pose is known: the identity at the start). A map just
+1. With no map yet, frame k−1 becomes its first keyframe (its pose is known: the identity at the start), and frames
+   are placed by their pairs' essential matrices at one step's length until one has parallax enough with it to start
+   the map (``_start``). The frames placed between the map's first two keyframes are then tied to them, each at its
+   share of the pairs' path on the line between the two (``_between``): a pair's direction over one short step can be
+   tens of degrees off, the line between the keyframes is the start pair's, which has the parallax. A map just
    started is on trial: where its first PnP placement turns from frame k−1 to frame k by more than the window's
    bound on a pair's rotation (√7.815 σ_R) away from the pair's own estimate, one of them is wrong, and a third
    estimate decides which (``_arbitrate``): the essential matrix of the map's first keyframe and frame k. Agreeing
@@ -10,7 +14,8 @@ For an accepted pair (frame k−1, frame k) whose two-view estimate passed the c
    since the first keyframe, it makes the map's points distorted (every placement on them would follow the
    distortion), and the map starts again from frame k−1; agreeing with neither, it makes the pair the map was
    started on wrong, and the map starts again from its first keyframe, which that pair did not place
-   (``_restart``). The frames placed so far keep their poses.
+   (``_restart``). The frames placed so far keep their poses, or take their share of the line between the new map's
+   first two keyframes.
 2. Where the pair's configuration is not the map's, the last two keyframes are re-extracted with it and their
    matches triangulated at their known poses (``LocalMap.switch``); the extractions count in frame k's cost.
 3. Frame k is matched against the last keyframe (the pair's own matches where frame k−1 is that keyframe) and
@@ -21,9 +26,10 @@ For an accepted pair (frame k−1, frame k) whose two-view estimate passed the c
    enough are triangulated, and the window is bundle-adjusted (``bundle.adjust``) with its rotation from the last
    keyframe held to the pairs' rotations chained since that keyframe (where no pair between them was lost).
 
-Every frame is anchored to the last keyframe at the time it was placed (T_kf⁻¹ · T_k); ``trajectory`` gives each
-frame its keyframe's refined pose times that anchor, so frames between keyframes (still, or coasted on the motion
-prior) follow their keyframe's refinement.
+Every frame is anchored to the last keyframe at the time it was placed (T_kf⁻¹ · T_k), or tied to the line between
+the map's first two keyframes; ``trajectory`` gives each frame its keyframe's refined pose times that anchor, or its
+share of the line between the refined keyframes, so frames between keyframes (still, or coasted on the motion prior)
+follow their keyframes' refinement.
 """
 from __future__ import annotations
 
@@ -57,17 +63,32 @@ class MapTracker:
         # R_k←kf (None: a pair between them lost)
         self.turned: np.ndarray | None = None
         self.placed = -1  # the index of the last frame placed
-        self.started: np.ndarray | None = None  # the pairs' rotations chained from the map's start to its second keyframe
+        # the pairs' rotations chained from the map's first keyframe to the last frame placed (None: a pair between them
+        # lost, or a restart that gave the chain up)
+        self.started: np.ndarray | None = None
+        self.unmapped: dict[int, np.ndarray] = {}  # the poses of the frames placed with no map yet, or one on trial
+        # frame index → (keyframe a, keyframe b, share, R): a frame placed at its share of the line from a to b, turned
+        # R from a (T_wc = [R_a R | (1 − share) c_a + share c_b])
+        self.between: dict[int, tuple[int, int, float, np.ndarray]] = {}
 
     def place(self, frame: Frame, taken: Try, prev: Frame, prev_cache: dict[str, Features],
               prev_pose: np.ndarray) -> tuple[np.ndarray, float, float, str, int]:
         """Frame k's camera-to-world pose, the extraction and matching ms it added, how it was located
-        ("pnp" | "essential") and its PnP inliers."""
+        ("pnp" | "essential" | "restart") and its PnP inliers."""
+        unmapped = self.map.last is None or self.on_trial
+        placed = self._place(frame, taken, prev, prev_cache, prev_pose)
+        if unmapped:
+            self.unmapped[frame.index] = placed[0]
+        return placed
+
+    def _place(self, frame: Frame, taken: Try, prev: Frame, prev_cache: dict[str, Features],
+               prev_pose: np.ndarray) -> tuple[np.ndarray, float, float, str, int]:
         step = taken.step
         assert step is not None
         p, key = self.p, taken.choice.key
         extra_ms = match_ms = 0.0
         self.turned = step.R @ self.turned if self.turned is not None and self.placed == prev.index else None
+        self.started = step.R @ self.started if self.started is not None and self.placed == prev.index else None
         self.placed = frame.index
         if self.map.last is None:
             return self._start(frame, taken, prev, prev_cache, prev_pose)
@@ -139,7 +160,12 @@ class MapTracker:
         out = poses.copy()
         keyframes = {**self.retired, **self.map.poses}
         for n, i in enumerate(indices):
-            if i in self.anchors:
+            if i in self.between:
+                a, b, share, R = self.between[i]
+                out[n] = keyframes[a].copy()
+                out[n][:3, :3] = keyframes[a][:3, :3] @ R
+                out[n][:3, 3] = (1 - share) * keyframes[a][:3, 3] + share * keyframes[b][:3, 3]
+            elif i in self.anchors:
                 kf, rel = self.anchors[i]
                 out[n] = keyframes[kf] @ rel
         return out
@@ -178,6 +204,7 @@ class MapTracker:
             return T, 0.0, match_ms, "essential", 0
         if not moved or pair is None or self._parallax_points(s.xy[q[pair[2]]], xy[t[pair[2]]], pair[0], pair[1]) < p.start_points:
             return T, 0.0, match_ms, "essential", 0
+        self._between(s, frame.index, T)
         length = max(float(np.linalg.norm(T[:3, 3] - s.T_wc[:3, 3])), 1e-9)
         forward[:3, :3], forward[:3, 3] = pair[0], length * pair[1]
         T = s.T_wc @ np.linalg.inv(forward)
@@ -195,6 +222,19 @@ class MapTracker:
         self.on_trial = True
         self.anchor(frame.index, T)
         return T, 0.0, match_ms, "essential", 0
+
+    def _between(self, s: Keyframe, k: int, T: np.ndarray) -> None:
+        """Tie the frames placed between the map's first keyframe s and frame k (at T where the pairs put it) to the map's
+        first two keyframes: each at its share of the path the pairs placed from s to k, on the line between the two
+        keyframes, turned from s as the pairs turn it."""
+        placed = {**self.unmapped, s.id: s.T_wc, k: T}
+        ids = list(range(s.id, k + 1))
+        if any(i not in placed for i in ids):  # a frame between them was lost: the pairs placed no path
+            return
+        steps = np.linalg.norm(np.diff([placed[i][:3, 3] for i in ids], axis=0), axis=1)
+        share = np.cumsum(steps) / max(steps.sum(), 1e-12)
+        for n, i in enumerate(ids[1:-1]):
+            self.between[i] = (s.id, k, float(share[n]), s.T_wc[:3, :3].T @ placed[i][:3, :3])
 
     def _disagrees(self, from_pose: np.ndarray, T: np.ndarray, R: np.ndarray) -> bool:
         """Whether the rotation from the camera at ``from_pose`` to frame k that the map's placement T gives differs
@@ -224,7 +264,7 @@ class MapTracker:
             return "map", ms
         if not self._disagrees(s.T_wc, T, third[0]):
             return "pair", ms
-        if self.started is not None and self.turned is not None and not self._apart(self.turned @ self.started, third[0]):
+        if self.started is not None and not self._apart(self.started, third[0]):
             return "map", ms
         return "start", ms
 
