@@ -66,7 +66,8 @@ class MapTracker:
         # the pairs' rotations chained from the map's first keyframe to the last frame placed (None: a pair between them
         # lost, or a restart that gave the chain up)
         self.started: np.ndarray | None = None
-        self.unmapped: dict[int, np.ndarray] = {}  # the poses of the frames placed with no map yet, or one on trial
+        # the poses of the frames placed with no map yet, or one on trial (``_between`` reads them at a start)
+        self.unmapped: dict[int, np.ndarray] = {}
         # frame index → (keyframe a, keyframe b, share, R): a frame placed at its share of the line from a to b, turned
         # R from a (T_wc = [R_a R | (1 − share) c_a + share c_b])
         self.between: dict[int, tuple[int, int, float, np.ndarray]] = {}
@@ -75,10 +76,11 @@ class MapTracker:
               prev_pose: np.ndarray) -> tuple[np.ndarray, float, float, str, int]:
         """Frame k's camera-to-world pose, the extraction and matching ms it added, how it was located
         ("pnp" | "essential" | "restart") and its PnP inliers."""
-        unmapped = self.map.last is None or self.on_trial
         placed = self._place(frame, taken, prev, prev_cache, prev_pose)
-        if unmapped:
+        if self.map.last is None or self.on_trial:
             self.unmapped[frame.index] = placed[0]
+        else:  # the map passed its trial, and is never given up: no start is to come
+            self.unmapped = {}
         return placed
 
     def _place(self, frame: Frame, taken: Try, prev: Frame, prev_cache: dict[str, Features],
