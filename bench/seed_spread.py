@@ -1,9 +1,10 @@
 """Seed spread of the VO's monocular ATE: std/mean over runs that differ only by the RANSAC seed.
 
     python bench/seed_spread.py [--code CHECKOUT] [--scale map|triangulated|...] [--sequences 00,01,07]
-        [--configs SIFT,ORB_GRID] [--runs 10] [--frames N] [--checks] [--jobs 16] [--out spread.json]
+        [--configs SIFT,ORB_GRID] [--params JSON] [--runs 10] [--frames N] [--checks] [--jobs 16] [--out spread.json]
 
-For each KITTI sequence and configuration (the extractor's defaults) it runs ``run_vo`` ``--runs`` times with
+For each KITTI sequence and configuration (the extractor's defaults, or with ``--params``: those parameters, e.g.
+``'{"nfeatures": 1500}'``, for every configuration) it runs ``run_vo`` ``--runs`` times with
 ``VOParams(seed=r)``, r = 0 … runs−1, no front-end checks (``--checks``: the sequence's agent's, as ``nfex evaluate``
 applies them by default), over the whole shared sequence (or its first ``--frames``),
 and reports per cell the Sim(3) ATE RMSE of each run, their mean, std and spread = std/mean (population std), and
@@ -59,8 +60,13 @@ class _Cached:
         return self.registry.resolve(name, params)
 
 
+def label(extractor: str, params: dict[str, Any] | None) -> str:
+    """A configuration's name in tables: ``orb_grid-default``, ``orb_grid-nfeatures=1500``."""
+    return f"{extractor.lower()}-" + (",".join(f"{k}={v}" for k, v in sorted(params.items())) if params else "default")
+
+
 def cell(code: str, data: str, sequence: str, extractor: str, runs: int, frames: int | None, scale: str | None,
-         checks: bool = False) -> dict[str, Any]:
+         checks: bool = False, params: dict[str, Any] | None = None) -> dict[str, Any]:
     """Every run of one (sequence, configuration) cell in this process."""
     _use(code)
     import numpy as np
@@ -86,17 +92,17 @@ def cell(code: str, data: str, sequence: str, extractor: str, runs: int, frames:
     out: list[dict[str, Any]] = []
     for r in range(runs):
         t0 = time.perf_counter()
-        params = VOParams(seed=r) if scale is None else VOParams(seed=r, scale=scale)
-        res = run_vo(mem, fixed(extractor), registry=registry, params=params,
+        vo = VOParams(seed=r) if scale is None else VOParams(seed=r, scale=scale)
+        res = run_vo(mem, fixed(extractor, params), registry=registry, params=vo,
                      **({"checks": step_checks} if step_checks is not None else {}))
         ate = window_errors(mem, res)[0]
         out.append({"seed": r, "ate": ate, "lost": res.lost_count, "failed": res.failed, "s": time.perf_counter() - t0})
-        print(f"{sequence} {extractor.lower()}-default seed {r}: ATE {ate if ate is None else round(ate, 3)} m, "
+        print(f"{sequence} {label(extractor, params)} seed {r}: ATE {ate if ate is None else round(ate, 3)} m, "
               f"{res.lost_count} lost, {out[-1]['s']:.0f} s", file=sys.stderr, flush=True)
     ates = np.array([o["ate"] for o in out if o["ate"] is not None], float)
     mean = float(ates.mean()) if len(ates) else None
     std = float(ates.std()) if len(ates) else None
-    return {"sequence": sequence, "config": f"{extractor.lower()}-default", "frames": n, "runs": out, "mean": mean,
+    return {"sequence": sequence, "config": label(extractor, params), "frames": n, "runs": out, "mean": mean,
             "std": std, "spread": std / mean if mean else None, "undefined": runs - len(ates)}
 
 
@@ -138,11 +144,12 @@ def summarise(logs: list[str]) -> list[dict[str, Any]]:
 def _print(cells: list[dict[str, Any]], against: list[dict[str, Any]] | None = None) -> None:
     fmt = (lambda v: f"{v:.3f}" if v is not None else "-")  # noqa: E731
     ref = {(c["sequence"], c["config"]): {r["seed"]: r["ate"] for r in c["runs"]} for c in against or []}
-    print(f"{'sequence':9} {'config':18} {'frames':>6} {'runs':>4} {'mean ATE':>9} {'std':>7} {'spread':>7} {'lost':>5}"
+    w = max([18, *(len(c["config"]) for c in cells)])
+    print(f"{'sequence':9} {'config':{w}} {'frames':>6} {'runs':>4} {'mean ATE':>9} {'std':>7} {'spread':>7} {'lost':>5}"
           + ("   against: mean ATE, lower in, Wilcoxon p" if against is not None else ""))
     for c in cells:
         lost = sum(r["lost"] for r in c["runs"])
-        line = (f"{c['sequence']:9} {c['config']:18} {c['frames'] or '-':>6} {len(c['runs']):4d} {fmt(c['mean']):>9} "
+        line = (f"{c['sequence']:9} {c['config']:{w}} {c['frames'] or '-':>6} {len(c['runs']):4d} {fmt(c['mean']):>9} "
                 f"{fmt(c['std']):>7} {fmt(c['spread']):>7} {lost:5d}")
         other = ref.get((c["sequence"], c["config"]), {})
         pairs = [(r["ate"], other[r["seed"]]) for r in c["runs"] if r["ate"] is not None and other.get(r["seed"]) is not None]
@@ -155,12 +162,24 @@ def _print(cells: list[dict[str, Any]], against: list[dict[str, Any]] | None = N
         print(line)
 
 
+def _params(text: str) -> dict[str, Any]:
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise argparse.ArgumentTypeError(f"not JSON: {e}") from None
+    if not isinstance(value, dict):
+        raise argparse.ArgumentTypeError("not a JSON object of parameter: value")
+    return value
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--code", default=str(ROOT), help="checkout whose nfex_core and nfex_slam run (default: this one)")
     ap.add_argument("--data", default=None, help="KITTI folder (default: $NFEX_DATA/kitti, else ../shared/data/kitti)")
     ap.add_argument("--sequences", default="00,01,07")
-    ap.add_argument("--configs", default="SIFT,ORB_GRID", help="extractors, run with their default parameters")
+    ap.add_argument("--configs", default="SIFT,ORB_GRID", help="extractors (with their default parameters unless --params)")
+    ap.add_argument("--params", type=_params, default=None, metavar="JSON",
+                    help="the configurations' parameters, as a JSON object (default: each extractor's defaults)")
     ap.add_argument("--runs", type=int, default=10)
     ap.add_argument("--frames", type=int, default=None)
     ap.add_argument("--scale", default=None, help="VOParams.scale (default: the checkout's own default)")
@@ -180,7 +199,8 @@ def main() -> None:
     data = args.data or str(Path(os.environ.get("NFEX_DATA", ROOT.parent / "shared" / "data")) / "kitti")
     cells = [(s, x) for s in args.sequences.split(",") for x in args.configs.split(",")]
     with ProcessPoolExecutor(max_workers=args.jobs, mp_context=get_context("spawn")) as pool:
-        futures = [pool.submit(cell, code, data, s, x, args.runs, args.frames, args.scale, args.checks) for s, x in cells]
+        futures = [pool.submit(cell, code, data, s, x, args.runs, args.frames, args.scale, args.checks,
+                               args.params) for s, x in cells]
         results = [f.result() for f in futures]
     try:
         rev = subprocess.run(["git", "-C", code, "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
