@@ -8,13 +8,17 @@ For each KITTI sequence and configuration (the extractor's defaults, or with ``-
 ``VOParams(seed=r)``, r = 0 … runs−1, no front-end checks (``--checks``: the sequence's agent's, as ``nfex evaluate``
 applies them by default), over the whole shared sequence (or its first ``--frames``),
 and reports per cell the Sim(3) ATE RMSE of each run, their mean, std and spread = std/mean (population std), and
-the lost pairs. ``--code`` is the checkout whose ``nfex_core`` and ``nfex_slam`` run (default: this one), so the
+the lost pairs; and where the runs' error comes from: each run's Sim(3)-aligned position error e_r(t) is split into
+the part every run shares, ē(t) = mean over the runs, and the part its seed adds, e_r(t) − ē(t), each reported as
+an RMS over frames (and runs): "shared" and "by seed" (m). Where the seed's part dominates, the ATE is the norm of a
+near zero-mean random error, whose std/mean hardly depends on how large that error is. ``--code`` is the checkout whose ``nfex_core`` and ``nfex_slam`` run (default: this one), so the
 same script measures another implementation, e.g. main's; ``--scale`` is passed to ``VOParams`` only when given
 (a checkout without the option keeps its own default). Runs of one cell share one worker process and its
 extraction cache: identical images and configuration give identical features, so only the first run extracts.
 ``--jobs`` cells run at once (a process pool; each worker imports from ``--code``). Each run's line goes to stderr
 as it ends; ``--summarise FILE ...`` prints the table from such lines, or from the JSON ``--out`` writes, instead of
-running (a measurement stopped before its last cell, with each cell's runs counted), and with ``--against JSON``
+running (a measurement stopped before its last cell, with each cell's runs counted; without "shared" and "by
+seed", which need the runs' errors, kept by neither), and with ``--against JSON``
 each cell's runs beside the same seeds' runs there: that mean, in how many seeds this one's ATE is lower, and
 Wilcoxon's signed-rank test (two-sided, exact) over the seeds both have.
 """
@@ -90,12 +94,15 @@ def cell(code: str, data: str, sequence: str, extractor: str, runs: int, frames:
     mem = ArraySequence(seq.dataset, seq.name, seq.intrinsics, [f.image for f in loaded], seq.timestamps[:n], seq.poses[:n],
                         seq.context)
     out: list[dict[str, Any]] = []
+    errors: list[Any] = []  # each run's aligned position error, frames × 3
     for r in range(runs):
         t0 = time.perf_counter()
         vo = VOParams(seed=r) if scale is None else VOParams(seed=r, scale=scale)
         res = run_vo(mem, fixed(extractor, params), registry=registry, params=vo,
                      **({"checks": step_checks} if step_checks is not None else {}))
         ate = window_errors(mem, res)[0]
+        if ate is not None:
+            errors.append(_aligned_error(mem, res))
         out.append({"seed": r, "ate": ate, "lost": res.lost_count, "failed": res.failed, "s": time.perf_counter() - t0})
         print(f"{sequence} {label(extractor, params)} seed {r}: ATE {ate if ate is None else round(ate, 3)} m, "
               f"{res.lost_count} lost, {out[-1]['s']:.0f} s", file=sys.stderr, flush=True)
@@ -103,7 +110,29 @@ def cell(code: str, data: str, sequence: str, extractor: str, runs: int, frames:
     mean = float(ates.mean()) if len(ates) else None
     std = float(ates.std()) if len(ates) else None
     return {"sequence": sequence, "config": label(extractor, params), "frames": n, "runs": out, "mean": mean,
-            "std": std, "spread": std / mean if mean else None, "undefined": runs - len(ates)}
+            "std": std, "spread": std / mean if mean else None, "undefined": runs - len(ates), **_split(errors)}
+
+
+def _aligned_error(seq: Any, res: Any) -> Any:
+    """A run's position error after the Sim(3) alignment its ATE is taken with (frames × 3, metres)."""
+    import numpy as np
+    from nfex_slam.trajectory import Trajectory, associate_and_align
+
+    ref = Trajectory(res.timestamps.copy(), np.stack([seq[f.index].pose for f in res.frames]).astype(float))
+    r, e, _ = associate_and_align(ref, Trajectory(res.timestamps.copy(), res.poses.copy()), "sim3")
+    return e.positions - r.positions
+
+
+def _split(errors: list[Any]) -> dict[str, float | None]:
+    """RMS of the error the runs share (their mean error at each frame) and of what each run's seed adds to it."""
+    import numpy as np
+
+    if len(errors) < 2 or len({e.shape for e in errors}) != 1:
+        return {"shared": None, "by_seed": None}
+    E = np.stack(errors)
+    shared = E.mean(axis=0)
+    return {"shared": float(np.sqrt((shared**2).sum(axis=-1).mean())),
+            "by_seed": float(np.sqrt(((E - shared) ** 2).sum(axis=-1).mean()))}
 
 
 _RUN = re.compile(r"^(\S+) (\S+) seed (\d+): ATE (\S+) m, (\d+) lost")
@@ -146,11 +175,12 @@ def _print(cells: list[dict[str, Any]], against: list[dict[str, Any]] | None = N
     ref = {(c["sequence"], c["config"]): {r["seed"]: r["ate"] for r in c["runs"]} for c in against or []}
     w = max([18, *(len(c["config"]) for c in cells)])
     print(f"{'sequence':9} {'config':{w}} {'frames':>6} {'runs':>4} {'mean ATE':>9} {'std':>7} {'spread':>7} {'lost':>5}"
+          f" {'shared':>7} {'by seed':>7}"
           + ("   against: mean ATE, lower in, Wilcoxon p" if against is not None else ""))
     for c in cells:
         lost = sum(r["lost"] for r in c["runs"])
         line = (f"{c['sequence']:9} {c['config']:{w}} {c['frames'] or '-':>6} {len(c['runs']):4d} {fmt(c['mean']):>9} "
-                f"{fmt(c['std']):>7} {fmt(c['spread']):>7} {lost:5d}")
+                f"{fmt(c['std']):>7} {fmt(c['spread']):>7} {lost:5d} {fmt(c.get('shared')):>7} {fmt(c.get('by_seed')):>7}")
         other = ref.get((c["sequence"], c["config"]), {})
         pairs = [(r["ate"], other[r["seed"]]) for r in c["runs"] if r["ate"] is not None and other.get(r["seed"]) is not None]
         if against is not None and pairs:
