@@ -17,8 +17,8 @@ same script measures another implementation, e.g. main's; ``--scale`` is passed 
 extraction cache: identical images and configuration give identical features, so only the first run extracts.
 ``--jobs`` cells run at once (a process pool; each worker imports from ``--code``). Each run's line goes to stderr
 as it ends; ``--summarise FILE ...`` prints the table from such lines, or from the JSON ``--out`` writes, instead of
-running (a measurement stopped before its last cell, with each cell's runs counted; without "shared" and "by
-seed", which need the runs' errors, kept by neither), and with ``--against JSON``
+running (a measurement stopped before its last cell, with each cell's runs counted; "shared" and "by seed" only
+for a cell read whole from one JSON: they need the runs' errors, which neither keeps), and with ``--against JSON``
 each cell's runs beside the same seeds' runs there: that mean, in how many seeds this one's ATE is lower, and
 Wilcoxon's signed-rank test (two-sided, exact) over the seeds both have.
 """
@@ -145,10 +145,16 @@ def summarise(logs: list[str]) -> list[dict[str, Any]]:
 
     cells: dict[tuple[str, str], list[dict[str, Any]]] = {}
     frames: dict[tuple[str, str], int] = {}
+    split: dict[tuple[str, str], dict[str, Any]] = {}  # a cell read whole from one JSON keeps its shared / by seed
     for log in logs:
         if log.endswith(".json"):
             for c in json.loads(Path(log).read_text())["cells"]:
-                runs = cells.setdefault((c["sequence"], c["config"]), [])
+                key = (c["sequence"], c["config"])
+                if key in cells:
+                    split.pop(key, None)
+                else:
+                    split[key] = {"shared": c.get("shared"), "by_seed": c.get("by_seed")}
+                runs = cells.setdefault(key, [])
                 runs.extend(r for r in c["runs"] if r["seed"] not in {o["seed"] for o in runs})
                 frames[(c["sequence"], c["config"])] = c["frames"]
             continue
@@ -156,6 +162,7 @@ def summarise(logs: list[str]) -> list[dict[str, Any]]:
             m = _RUN.match(line)
             if m:
                 ate = None if m[4] == "None" else float(m[4])
+                split.pop((m[1], m[2]), None)
                 runs = cells.setdefault((m[1], m[2]), [])
                 if int(m[3]) not in {o["seed"] for o in runs}:
                     runs.append({"seed": int(m[3]), "ate": ate, "lost": int(m[5])})
@@ -166,7 +173,8 @@ def summarise(logs: list[str]) -> list[dict[str, Any]]:
         std = float(ates.std()) if len(ates) else None
         out.append({"sequence": sequence, "config": config, "frames": frames.get((sequence, config), 0), "runs": runs,
                     "mean": mean, "std": std,
-                    "spread": std / mean if mean else None, "undefined": len(runs) - len(ates)})
+                    "spread": std / mean if mean else None, "undefined": len(runs) - len(ates),
+                    **split.get((sequence, config), {})})
     return out
 
 
