@@ -9,9 +9,9 @@ For each KITTI sequence and configuration (the extractor's defaults, or with ``-
 applies them by default), over the whole shared sequence (or its first ``--frames``),
 and reports per cell the Sim(3) ATE RMSE of each run, their mean, std and spread = std/mean (population std), and
 the lost pairs; and where the runs' error comes from: each run's Sim(3)-aligned position error e_r(t) is split into
-the part every run shares, ē(t) = mean over the runs, and the part its seed adds, e_r(t) − ē(t), each reported as
-an RMS over frames (and runs): "shared" and "by seed" (m). Where the seed's part dominates, the ATE is the norm of a
-near zero-mean random error, whose std/mean hardly depends on how large that error is. ``--code`` is the checkout whose ``nfex_core`` and ``nfex_slam`` run (default: this one), so the
+the part every run shares and the part its seed adds (e_r(t) minus the runs' mean at frame t), each an RMS over
+frames: "shared" and "by seed" (m, ``_split``; shared² + by seed² = the runs' mean ATE²). The larger the seed's
+part against the shared one, the larger std/mean. "path m" is the ground truth's length over the frames run. ``--code`` is the checkout whose ``nfex_core`` and ``nfex_slam`` run (default: this one), so the
 same script measures another implementation, e.g. main's; ``--scale`` is passed to ``VOParams`` only when given
 (a checkout without the option keeps its own default). Runs of one cell share one worker process and its
 extraction cache: identical images and configuration give identical features, so only the first run extracts.
@@ -65,8 +65,24 @@ class _Cached:
 
 
 def label(extractor: str, params: dict[str, Any] | None) -> str:
-    """A configuration's name in tables: ``orb_grid-default``, ``orb_grid-nfeatures=1500``."""
+    """A configuration's name in tables: ``orb_grid-default``, ``orb_grid-nfeatures=1500`` (the parameters as
+    given: ``{"nfeatures": 500}`` is named apart from the default it equals)."""
     return f"{extractor.lower()}-" + (",".join(f"{k}={v}" for k, v in sorted(params.items())) if params else "default")
+
+
+def check(code: str, extractor: str, params: dict[str, Any] | None) -> str | None:
+    """Why ``extractor`` with ``params`` cannot run (an unknown extractor or parameter, a value out of range), or None."""
+    _use(code)
+    from nfex_core.errors import NfexError
+    from nfex_core.knowledge import open_graph
+    from nfex_core.vision.registry import ExtractorRegistry
+
+    registry = ExtractorRegistry.from_vocabulary(open_graph(tempfile.mkdtemp(prefix="nfex-spread-")).vocabulary())
+    try:
+        registry.resolve(extractor, params)
+    except NfexError as e:
+        return f"{extractor}: {e}"
+    return None
 
 
 def cell(code: str, data: str, sequence: str, extractor: str, runs: int, frames: int | None, scale: str | None,
@@ -110,7 +126,8 @@ def cell(code: str, data: str, sequence: str, extractor: str, runs: int, frames:
     mean = float(ates.mean()) if len(ates) else None
     std = float(ates.std()) if len(ates) else None
     return {"sequence": sequence, "config": label(extractor, params), "frames": n, "runs": out, "mean": mean,
-            "std": std, "spread": std / mean if mean else None, "undefined": runs - len(ates), **_split(errors)}
+            "std": std, "spread": std / mean if mean else None, "undefined": runs - len(ates), **_split(errors),
+            "path": float(np.linalg.norm(np.diff(seq.poses[:n, :3, 3], axis=0), axis=1).sum())}
 
 
 def _aligned_error(seq: Any, res: Any) -> Any:
@@ -124,15 +141,20 @@ def _aligned_error(seq: Any, res: Any) -> Any:
 
 
 def _split(errors: list[Any]) -> dict[str, float | None]:
-    """RMS of the error the runs share (their mean error at each frame) and of what each run's seed adds to it."""
+    """The error the runs share and the error each run's seed adds, as RMS over frames (m), from n runs' aligned errors
+    e_r: by seed² = n/(n−1) · mean_r,t ‖e_r − ē‖² (ē the runs' mean at each frame), shared² = mean_t ‖ē‖² − by seed²/n
+    (ē still carries 1/n of the seed's variance), so that shared² + by seed² = the runs' mean ATE². None without two
+    runs of equal length."""
     import numpy as np
 
-    if len(errors) < 2 or len({e.shape for e in errors}) != 1:
+    n = len(errors)
+    if n < 2 or len({e.shape for e in errors}) != 1:
         return {"shared": None, "by_seed": None}
     E = np.stack(errors)
-    shared = E.mean(axis=0)
-    return {"shared": float(np.sqrt((shared**2).sum(axis=-1).mean())),
-            "by_seed": float(np.sqrt(((E - shared) ** 2).sum(axis=-1).mean()))}
+    mean = E.mean(axis=0)
+    seed2 = float(((E - mean) ** 2).sum(axis=-1).mean()) * n / (n - 1)
+    shared2 = float((mean**2).sum(axis=-1).mean()) - seed2 / n
+    return {"shared": float(np.sqrt(max(shared2, 0.0))), "by_seed": float(np.sqrt(seed2))}
 
 
 _RUN = re.compile(r"^(\S+) (\S+) seed (\d+): ATE (\S+) m, (\d+) lost")
@@ -146,6 +168,7 @@ def summarise(logs: list[str]) -> list[dict[str, Any]]:
     cells: dict[tuple[str, str], list[dict[str, Any]]] = {}
     frames: dict[tuple[str, str], int] = {}
     split: dict[tuple[str, str], dict[str, Any]] = {}  # a cell read whole from one JSON keeps its shared / by seed
+    paths: dict[tuple[str, str], float | None] = {}
     for log in logs:
         if log.endswith(".json"):
             for c in json.loads(Path(log).read_text())["cells"]:
@@ -154,6 +177,7 @@ def summarise(logs: list[str]) -> list[dict[str, Any]]:
                     split.pop(key, None)
                 else:
                     split[key] = {"shared": c.get("shared"), "by_seed": c.get("by_seed")}
+                paths[key] = c.get("path")
                 runs = cells.setdefault(key, [])
                 runs.extend(r for r in c["runs"] if r["seed"] not in {o["seed"] for o in runs})
                 frames[(c["sequence"], c["config"])] = c["frames"]
@@ -174,7 +198,7 @@ def summarise(logs: list[str]) -> list[dict[str, Any]]:
         out.append({"sequence": sequence, "config": config, "frames": frames.get((sequence, config), 0), "runs": runs,
                     "mean": mean, "std": std,
                     "spread": std / mean if mean else None, "undefined": len(runs) - len(ates),
-                    **split.get((sequence, config), {})})
+                    **split.get((sequence, config), {}), "path": paths.get((sequence, config))})
     return out
 
 
@@ -183,12 +207,13 @@ def _print(cells: list[dict[str, Any]], against: list[dict[str, Any]] | None = N
     ref = {(c["sequence"], c["config"]): {r["seed"]: r["ate"] for r in c["runs"]} for c in against or []}
     w = max([18, *(len(c["config"]) for c in cells)])
     print(f"{'sequence':9} {'config':{w}} {'frames':>6} {'runs':>4} {'mean ATE':>9} {'std':>7} {'spread':>7} {'lost':>5}"
-          f" {'shared':>7} {'by seed':>7}"
+          f" {'shared':>7} {'by seed':>7} {'path m':>7}"
           + ("   against: mean ATE, lower in, Wilcoxon p" if against is not None else ""))
     for c in cells:
         lost = sum(r["lost"] for r in c["runs"])
         line = (f"{c['sequence']:9} {c['config']:{w}} {c['frames'] or '-':>6} {len(c['runs']):4d} {fmt(c['mean']):>9} "
-                f"{fmt(c['std']):>7} {fmt(c['spread']):>7} {lost:5d} {fmt(c.get('shared')):>7} {fmt(c.get('by_seed')):>7}")
+                f"{fmt(c['std']):>7} {fmt(c['spread']):>7} {lost:5d} {fmt(c.get('shared')):>7} {fmt(c.get('by_seed')):>7} "
+                f"{fmt(c.get('path')):>7}")
         other = ref.get((c["sequence"], c["config"]), {})
         pairs = [(r["ate"], other[r["seed"]]) for r in c["runs"] if r["ate"] is not None and other.get(r["seed"]) is not None]
         if against is not None and pairs:
@@ -207,6 +232,9 @@ def _params(text: str) -> dict[str, Any]:
         raise argparse.ArgumentTypeError(f"not JSON: {e}") from None
     if not isinstance(value, dict):
         raise argparse.ArgumentTypeError("not a JSON object of parameter: value")
+    odd = [k for k, v in value.items() if not isinstance(v, (bool, int, float, str)) or (isinstance(v, str) and " " in v)]
+    if odd:
+        raise argparse.ArgumentTypeError(f"a value must be a number, a boolean or a string without spaces: {', '.join(odd)}")
     return value
 
 
@@ -237,6 +265,10 @@ def main() -> None:
     data = args.data or str(Path(os.environ.get("NFEX_DATA", ROOT.parent / "shared" / "data")) / "kitti")
     cells = [(s, x) for s in args.sequences.split(",") for x in args.configs.split(",")]
     with ProcessPoolExecutor(max_workers=args.jobs, mp_context=get_context("spawn")) as pool:
+        if args.params:  # a bad parameter stops the command before any run, not in a worker after others ran
+            for why in pool.map(check, *zip(*[(code, x, args.params) for x in args.configs.split(",")], strict=True)):
+                if why:
+                    ap.error(why)
         futures = [pool.submit(cell, code, data, s, x, args.runs, args.frames, args.scale, args.checks,
                                args.params) for s, x in cells]
         results = [f.result() for f in futures]
