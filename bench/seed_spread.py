@@ -11,9 +11,10 @@ and reports per cell the Sim(3) ATE RMSE of each run, their mean, std and spread
 the lost pairs; and where the runs' error comes from: each run's Sim(3)-aligned position error e_r(t) is split into
 the part every run shares and the part its seed adds (e_r(t) minus the runs' mean at frame t), each an RMS over
 frames: "shared" and "by seed" (m, ``_split``; shared² + by seed² = the runs' mean ATE²). The larger the seed's
-part against the shared one, the larger std/mean. "path m" is the ground truth's length over the frames run. ``--code`` is the checkout whose ``nfex_core`` and ``nfex_slam`` run (default: this one), so the
-same script measures another implementation, e.g. main's; ``--scale`` is passed to ``VOParams`` only when given
-(a checkout without the option keeps its own default). Runs of one cell share one worker process and its
+part against the shared one, the larger std/mean. "path m" is the ground truth's length over the frames run.
+``--code`` is the checkout whose ``nfex_core`` and ``nfex_slam`` run (default: this one), so the same script
+measures another implementation, e.g. main's; ``--scale`` is passed to ``VOParams`` only when given (a checkout
+without the option keeps its own default). Runs of one cell share one worker process and its
 extraction cache: identical images and configuration give identical features, so only the first run extracts.
 ``--jobs`` cells run at once (a process pool; each worker imports from ``--code``). Each run's line goes to stderr
 as it ends; ``--summarise FILE ...`` prints the table from such lines, or from the JSON ``--out`` writes, instead of
@@ -91,6 +92,7 @@ def cell(code: str, data: str, sequence: str, extractor: str, runs: int, frames:
     _use(code)
     import numpy as np
     from nfex_slam.datasets import ArraySequence, open_sequence
+    from nfex_slam.trajectory import from_sequence
     from nfex_slam.vo import VOParams, fixed, run_vo, window_errors
 
     from nfex_core.knowledge import open_graph
@@ -127,16 +129,14 @@ def cell(code: str, data: str, sequence: str, extractor: str, runs: int, frames:
     std = float(ates.std()) if len(ates) else None
     return {"sequence": sequence, "config": label(extractor, params), "frames": n, "runs": out, "mean": mean,
             "std": std, "spread": std / mean if mean else None, "undefined": runs - len(ates), **_split(errors),
-            "path": float(np.linalg.norm(np.diff(seq.poses[:n, :3, 3], axis=0), axis=1).sum())}
+            "path": from_sequence(mem).path_length()}
 
 
 def _aligned_error(seq: Any, res: Any) -> Any:
     """A run's position error after the Sim(3) alignment its ATE is taken with (frames × 3, metres)."""
-    import numpy as np
-    from nfex_slam.trajectory import Trajectory, associate_and_align
+    from nfex_slam.trajectory import Trajectory, associate_and_align, from_sequence
 
-    ref = Trajectory(res.timestamps.copy(), np.stack([seq[f.index].pose for f in res.frames]).astype(float))
-    r, e, _ = associate_and_align(ref, Trajectory(res.timestamps.copy(), res.poses.copy()), "sim3")
+    r, e, _ = associate_and_align(from_sequence(seq), Trajectory(res.timestamps.copy(), res.poses.copy()), "sim3")
     return e.positions - r.positions
 
 
@@ -180,7 +180,7 @@ def summarise(logs: list[str]) -> list[dict[str, Any]]:
                 paths[key] = c.get("path")
                 runs = cells.setdefault(key, [])
                 runs.extend(r for r in c["runs"] if r["seed"] not in {o["seed"] for o in runs})
-                frames[(c["sequence"], c["config"])] = c["frames"]
+                frames[key] = c["frames"]
             continue
         for line in Path(log).read_text().splitlines():
             m = _RUN.match(line)
